@@ -1,0 +1,33 @@
+# Every dependency comes from a Debian package. When one is missing, say which package provides it
+# instead of letting CMake print a generic "could not find" wall.
+include_guard(GLOBAL)
+
+set(BRDF_INSTALL_HINT "run tools/dev/install-deps.sh (apt-get) and configure again")
+
+macro(brdf_require_package name debian_package)
+  find_package(${name} ${ARGN} QUIET)
+  if(NOT ${name}_FOUND)
+    message(FATAL_ERROR
+      "brdf-service needs ${name} (Debian package: ${debian_package}). ${BRDF_INSTALL_HINT}.")
+  endif()
+endmacro()
+
+brdf_require_package(OpenCL "ocl-icd-opencl-dev opencl-headers pocl-opencl-icd")
+if(NOT EXISTS /usr/include/CL/opencl.hpp)
+  find_path(BRDF_OPENCL_HPP CL/opencl.hpp)
+  if(NOT BRDF_OPENCL_HPP)
+    message(FATAL_ERROR "brdf-service needs CL/opencl.hpp (Debian package: opencl-clhpp-headers). ${BRDF_INSTALL_HINT}.")
+  endif()
+endif()
+brdf_require_package(nlohmann_json "nlohmann-json3-dev")
+brdf_require_package(CLI11 "libcli11-dev")
+brdf_require_package(OpenEXR "libopenexr-dev")
+brdf_require_package(OpenImageIO "libopenimageio-dev")
+find_package(Threads REQUIRED)
+
+if(BRDF_BUILD_TESTS)
+  brdf_require_package(GTest "googletest libgtest-dev")
+endif()
+if(BRDF_BUILD_BENCH)
+  brdf_require_package(benchmark "libbenchmark-dev")
+endif()

@@ -1,0 +1,15 @@
+# -DBRDF_SANITIZE=address,undefined builds everything (library, tools, tests) with those sanitizers.
+include_guard(GLOBAL)
+
+if(BRDF_SANITIZE)
+  string(REPLACE "," ";" _brdf_sanitizers "${BRDF_SANITIZE}")
+  foreach(_s IN LISTS _brdf_sanitizers)
+    if(NOT _s MATCHES "^(address|undefined|leak)$")
+      message(FATAL_ERROR "BRDF_SANITIZE: unknown sanitizer '${_s}' (use address, undefined, leak)")
+    endif()
+  endforeach()
+  set(_flags "-fsanitize=${BRDF_SANITIZE}" -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  add_compile_options(${_flags})
+  add_link_options(${_flags})
+  message(STATUS "brdf-service: sanitizers enabled: ${BRDF_SANITIZE}")
+endif()

@@ -1,0 +1,19 @@
+# brdf_add_gtest(name SOURCES ... LIBS ... LABELS ... [TIMEOUT s])
+# One executable per test folder, one CTest entry per TEST() through gtest_discover_tests. The test
+# support library knows the source and build trees and points PoCL's kernel cache into the build
+# tree (tests/support), so test binaries also run outside ctest and never write to $HOME.
+include_guard(GLOBAL)
+include(GoogleTest)
+
+function(brdf_add_gtest name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} brdf_test_support GTest::gtest_main brdf_options)
+  gtest_discover_tests(${name}
+    DISCOVERY_MODE PRE_TEST
+    DISCOVERY_TIMEOUT 60
+    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT})
+endfunction()

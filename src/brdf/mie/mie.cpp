@@ -1,0 +1,1 @@
+// Lorenz-Mie theory: being written (issue 2).

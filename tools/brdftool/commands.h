@@ -1,0 +1,18 @@
+#pragma once
+// Each subcommand lives in its own cmd_*.cpp and registers itself on the root app. Parsing fills the
+// options; main then runs the one subcommand that was given. Commands throw brdf::Error on failure.
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+
+namespace brdf::tool {
+
+struct Subcommand {
+    CLI::App* app = nullptr;
+    std::function<int()> run; ///< returns the exit status (0 success)
+};
+
+Subcommand add_mie_command(CLI::App& root);
+
+} // namespace brdf::tool
