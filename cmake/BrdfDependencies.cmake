@@ -23,6 +23,16 @@ brdf_require_package(nlohmann_json "nlohmann-json3-dev")
 brdf_require_package(CLI11 "libcli11-dev")
 brdf_require_package(OpenEXR "libopenexr-dev")
 brdf_require_package(OpenImageIO "libopenimageio-dev")
+# Debian's OpenImageIO target lists /usr/include/opencv4 among its include folders, which exists only
+# with libopencv-dev installed, and CMake refuses to generate with a missing one: keep those that exist.
+get_target_property(brdf_oiio_includes OpenImageIO::OpenImageIO INTERFACE_INCLUDE_DIRECTORIES)
+set(brdf_oiio_existing)
+foreach(dir IN LISTS brdf_oiio_includes)
+  if(EXISTS "${dir}")
+    list(APPEND brdf_oiio_existing "${dir}")
+  endif()
+endforeach()
+set_property(TARGET OpenImageIO::OpenImageIO PROPERTY INTERFACE_INCLUDE_DIRECTORIES ${brdf_oiio_existing})
 find_package(Threads REQUIRED)
 
 if(BRDF_BUILD_TESTS)

@@ -1,0 +1,108 @@
+#include <formats/table.h>
+
+#include <formats/file_io.h>
+
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+#include <brdf/core/quadrature.h>
+
+#include <cmath>
+
+namespace brdf::formats {
+
+const char* channel_name(int channel) {
+    static const char* const names[3] = {"red", "green", "blue"};
+    return channel >= 0 && channel < 3 ? names[channel] : "?";
+}
+
+BrdfTable::BrdfTable() {
+    for (auto& plane : channels) plane.assign(cells, 0.0);
+    for (std::size_t cell = 0; cell < cells; ++cell)
+        if (cell_below_horizon(cell)) set_no_data(cell);
+}
+
+std::size_t BrdfTable::data_cells() const {
+    std::size_t n = 0;
+    for (std::size_t cell = 0; cell < cells; ++cell) n += has_data(cell);
+    return n;
+}
+
+BrdfTable tabulate(const std::function<Rgb(const CellCentre&)>& brdf) {
+    BrdfTable table;
+    CellCentre centre;
+    for (int i = 0; i < theta_h_bins; ++i)
+        for (int j = 0; j < theta_d_bins; ++j)
+            for (int k = 0; k < phi_d_bins; ++k) {
+                const std::size_t cell = cell_index(i, j, k);
+                if (cell_below_horizon(cell)) continue; // already no_data
+                centre.cell = cell;
+                centre.index = {i, j, k};
+                centre.angles = {theta_h_centre(i), theta_d_centre(j), phi_d_centre(k)};
+                centre.dirs = to_directions(centre.angles);
+                table.set(cell, brdf(centre));
+            }
+    return table;
+}
+
+std::string describe_cell(std::size_t cell) {
+    const CellIndices c = cell_indices(cell);
+    return cat("cell theta_h ", c.theta_h, ", theta_d ", c.theta_d, ", phi_d ", c.phi_d);
+}
+
+void check_table(const BrdfTable& table, std::string_view what) {
+    for (int c = 0; c < 3; ++c)
+        if (table.channels[c].size() != cells)
+            throw NumericalError(cat(what, ": the ", channel_name(c), " channel holds ",
+                                     table.channels[c].size(), " values (", cells, " expected)"));
+    for (std::size_t cell = 0; cell < cells; ++cell) {
+        if (cell_below_horizon(cell)) continue;
+        const Rgb v = table.at(cell);
+        const bool no_data =
+            v[0] == BrdfTable::no_data && v[1] == BrdfTable::no_data && v[2] == BrdfTable::no_data;
+        if (no_data) continue;
+        for (int c = 0; c < 3; ++c)
+            if (!std::isfinite(v[c]) || v[c] < 0.0)
+                throw NumericalError(cat(what, ": ", channel_name(c), " value ",
+                                         detail::value_text(v[c]), " at ", describe_cell(cell),
+                                         " (a BRDF must be finite and >= 0, or -1 in all three "
+                                         "channels for no data)"));
+    }
+}
+
+TableSample sample(const BrdfTable& table, double theta_i, double theta_o, double phi) {
+    TableSample s;
+    const DirectionPair p = directions_from_angles(theta_i, theta_o, phi);
+    s.cell = nearest_cell(p.wi, p.wo);
+    if (!(p.wi.z > 0.0 && p.wo.z > 0.0) || !table.has_data(s.cell)) return s;
+    s.rgb = table.at(s.cell);
+    s.has_data = true;
+    return s;
+}
+
+Rgb lookup(const BrdfTable& table, double theta_i, double theta_o, double phi) {
+    return sample(table, theta_i, theta_o, phi).rgb;
+}
+
+Rgb directional_albedo(const BrdfTable& table, double theta_i, AlbedoQuadrature quadrature) {
+    if (quadrature.mu_points < 1 || quadrature.phi_points < 1 || quadrature.mu_points > 100000 ||
+        quadrature.phi_points > 100000)
+        throw InputError(cat("directional_albedo: quadrature of ", quadrature.mu_points, " x ",
+                             quadrature.phi_points, " points (each must be in [1, 100000])"));
+    Rgb rho{0.0, 0.0, 0.0};
+    if (!(std::cos(theta_i) > 0.0)) return rho;
+    // rho = int_0^1 mu dmu int_0^{2 pi} f dphi.
+    const Quadrature mu = gauss_legendre(quadrature.mu_points, 0.0, 1.0);
+    const double dphi = 2.0 * pi / quadrature.phi_points;
+    for (std::size_t m = 0; m < mu.size(); ++m) {
+        const double theta_o = std::acos(mu.x[m]);
+        Rgb ring{0.0, 0.0, 0.0};
+        for (int n = 0; n < quadrature.phi_points; ++n) {
+            const Rgb f = lookup(table, theta_i, theta_o, (n + 0.5) * dphi);
+            for (int c = 0; c < 3; ++c) ring[c] += f[c];
+        }
+        for (int c = 0; c < 3; ++c) rho[c] += mu.w[m] * mu.x[m] * ring[c] * dphi;
+    }
+    return rho;
+}
+
+} // namespace brdf::formats

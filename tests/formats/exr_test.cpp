@@ -1,0 +1,412 @@
+#include <formats/exr/exr.h>
+#include <formats/merl/merl.h>
+
+#include <brdf/core/error.h>
+
+#include "format_test_util.h"
+#include "test_support.h"
+
+#include <OpenImageIO/imageio.h>
+#include <half.h>
+
+#include <cmath>
+#include <csignal>
+#include <cstring>
+#include <sys/resource.h>
+
+namespace brdf::formats {
+namespace {
+
+namespace fs = std::filesystem;
+using test::TempDir;
+
+float as_float(double v) {
+    return static_cast<float>(v);
+}
+
+// Other tools must read our files: OpenImageIO reports the layout of shared/DESIGN.md.
+TEST(ExrFormat, OpenImageIOSeesTheDocumentedLayoutAndAttributes) {
+    TempDir dir;
+    const fs::path p = dir / "a.exr";
+    write_exr(p, test::analytic_table());
+    auto in = OIIO::ImageInput::open(p.string());
+    ASSERT_TRUE(in) << OIIO::geterror();
+    const OIIO::ImageSpec& spec = in->spec();
+    EXPECT_EQ(std::string(in->format_name()), "openexr");
+    EXPECT_EQ(spec.width, 180);
+    EXPECT_EQ(spec.height, 8100);
+    EXPECT_EQ(spec.x, 0);
+    EXPECT_EQ(spec.y, 0);
+    EXPECT_EQ(spec.nchannels, 3);
+    EXPECT_EQ(spec.channelnames, (std::vector<std::string>{"R", "G", "B"}));
+    EXPECT_EQ(spec.format, OIIO::TypeDesc::FLOAT);
+    EXPECT_EQ(spec.tile_width, 0); // scanlines
+    EXPECT_EQ(spec.get_string_attribute("compression"), "zip");
+    EXPECT_EQ(spec.get_string_attribute("brdf.layout"), "merl-halfdiff-90x90x180");
+    EXPECT_EQ(spec.get_string_attribute("brdf.units"), "1/sr");
+    EXPECT_EQ(spec.get_string_attribute("brdf.colorspace"), "linear Rec.709 (sRGB primaries), D65");
+    EXPECT_EQ(spec.get_string_attribute("brdf.spec"), test::analytic_table().spec);
+    EXPECT_EQ(spec.get_string_attribute("brdf.generator"), "formats tests");
+    EXPECT_FALSE(in->seek_subimage(1, 0)); // one part
+}
+
+TEST(ExrFormat, PixelsAreTheCellsInMerlOrderWithZeroBelowTheHorizon) {
+    TempDir dir;
+    const fs::path p = dir / "a.exr";
+    BrdfTable t = test::analytic_table();
+    // Data below the horizon is not written; a no-data cell above it is written as 0.
+    t.set(cell_index(89, 89, 0), {5, 5, 5});
+    const std::size_t hole = cell_index(30, 30, 30);
+    t.set_no_data(hole);
+    write_exr(p, t);
+    auto in = OIIO::ImageInput::open(p.string());
+    ASSERT_TRUE(in);
+    std::vector<float> pixels(std::size_t{180} * 8100 * 3);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::FLOAT, pixels.data()));
+    for (int y = 0; y < 8100; ++y)
+        for (int x = 0; x < 180; ++x) {
+            const std::size_t cell = std::size_t(y) * 180 + x;
+            const CellIndices c = cell_indices(cell);
+            ASSERT_EQ(y, 90 * c.theta_h + c.theta_d);
+            ASSERT_EQ(x, c.phi_d);
+            for (int ch = 0; ch < 3; ++ch) {
+                const float expected = cell_below_horizon(cell) || cell == hole
+                                           ? 0.0f
+                                           : as_float(t.channels[ch][cell]);
+                ASSERT_EQ(pixels[cell * 3 + ch], expected) << describe_cell(cell);
+            }
+        }
+}
+
+TEST(ExrFormat, RoundTripRoundsToFloatAndRestoresNoDataFromGeometry) {
+    TempDir dir;
+    const fs::path p = dir / "a.exr";
+    BrdfTable t = test::analytic_table();
+    t.colorspace = "ACEScg";
+    const std::size_t hole = cell_index(30, 30, 30);
+    t.set_no_data(hole);
+    write_exr(p, t);
+    const BrdfTable back = read_exr(p);
+    EXPECT_EQ(back.spec, t.spec);
+    EXPECT_EQ(back.generator, t.generator);
+    EXPECT_EQ(back.colorspace, "ACEScg");
+    for (std::size_t cell = 0; cell < cells; ++cell) {
+        ASSERT_EQ(back.has_data(cell), !cell_below_horizon(cell));
+        if (cell_below_horizon(cell)) {
+            ASSERT_EQ(back.at(cell), (Rgb{-1, -1, -1}));
+            continue;
+        }
+        for (int c = 0; c < 3; ++c)
+            ASSERT_EQ(back.channels[c][cell],
+                      cell == hole ? 0.0 : double(as_float(t.channels[c][cell])));
+    }
+}
+
+// `convert` must not change any valid value beyond float32 rounding.
+TEST(ExrFormat, MerlToExrToMerlChangesValuesOnlyByFloatRounding) {
+    TempDir dir;
+    write_merl(dir / "a.binary", test::analytic_table());
+    const BrdfTable merl = read_merl(dir / "a.binary");
+    write_exr(dir / "a.exr", merl);
+    const BrdfTable exr = read_exr(dir / "a.exr");
+    write_merl(dir / "b.binary", exr);
+    const BrdfTable again = read_merl(dir / "b.binary");
+    for (std::size_t cell = 0; cell < cells; ++cell) {
+        ASSERT_EQ(again.has_data(cell), merl.has_data(cell));
+        if (!merl.has_data(cell)) continue;
+        for (int c = 0; c < 3; ++c) {
+            // EXR holds float(value) exactly; MERL stores it to within one double ulp.
+            ASSERT_EQ(exr.channels[c][cell], double(as_float(merl.channels[c][cell])));
+            ASSERT_NEAR(again.channels[c][cell], merl.channels[c][cell],
+                        std::ldexp(std::abs(merl.channels[c][cell]), -24) * 1.0001);
+        }
+    }
+    // EXR -> MERL -> EXR is exact: float values survive the double round trip.
+    write_exr(dir / "b.exr", again);
+    const BrdfTable exr2 = read_exr(dir / "b.exr");
+    for (int c = 0; c < 3; ++c)
+        for (std::size_t cell = 0; cell < cells; ++cell)
+            if (exr.has_data(cell)) {
+                ASSERT_EQ(as_float(exr2.channels[c][cell]), as_float(exr.channels[c][cell]));
+            }
+}
+
+TEST(ExrFormat, OpenExrsOwnToolReadsTheFile) {
+    if (!fs::exists("/usr/bin/exrheader"))
+        GTEST_SKIP() << "exrheader (Debian package openexr) not installed";
+    TempDir dir;
+    write_exr(dir / "a.exr", test::analytic_table());
+    const test::ProcessResult r =
+        test::run_process({"/usr/bin/exrheader", (dir / "a.exr").string()});
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("zip"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("brdf.layout (type string): \"merl-halfdiff-90x90x180\""),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("(0 0) - (179 8099)"), std::string::npos) << r.out;
+}
+
+// Half-float channels from another tool are accepted (converted by OpenEXR), attributes other than
+// brdf.layout are optional.
+TEST(ExrRead, HalfChannelsAndMinimalAttributesAreAccepted) {
+    TempDir dir;
+    const fs::path p = dir / "half.exr";
+    test::ExrSpecimen s;
+    s.half = true;
+    s.attributes = {{"brdf.layout", "merl-halfdiff-90x90x180"}};
+    s.value = 0.3f;
+    test::write_exr_specimen(p, s);
+    const BrdfTable t = read_exr(p);
+    EXPECT_EQ(t.colorspace, default_colorspace);
+    EXPECT_EQ(t.spec, "");
+    EXPECT_EQ(t.channels[1][cell_index(0, 0, 0)], double(float(half(0.3f))));
+    EXPECT_EQ(t.data_cells(), cells - 361784);
+}
+
+// Other tools' variations that still hold a table: tiles instead of scanlines, an extra channel.
+TEST(ExrRead, TiledFileWithAnExtraChannelIsAccepted) {
+    TempDir dir;
+    write_exr(dir / "a.exr", test::analytic_table());
+    auto in = OIIO::ImageInput::open((dir / "a.exr").string());
+    ASSERT_TRUE(in);
+    OIIO::ImageSpec spec = in->spec();
+    std::vector<float> rgb(std::size_t{180} * 8100 * 3);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::FLOAT, rgb.data()));
+    in->close();
+    std::vector<float> rgba(std::size_t{180} * 8100 * 4, 1.0f);
+    for (std::size_t p = 0; p < cells; ++p)
+        for (int c = 0; c < 3; ++c) rgba[p * 4 + c] = rgb[p * 3 + c];
+    spec.nchannels = 4;
+    spec.channelnames.push_back("A");
+    spec.alpha_channel = 3;
+    spec.tile_width = spec.tile_height = 64;
+    auto out = OIIO::ImageOutput::create("exr");
+    ASSERT_TRUE(out);
+    ASSERT_TRUE(out->open((dir / "tiled.exr").string(), spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, rgba.data()));
+    out->close();
+    auto check = OIIO::ImageInput::open((dir / "tiled.exr").string());
+    ASSERT_TRUE(check);
+    ASSERT_EQ(check->spec().tile_width, 64);
+    check->close();
+    const BrdfTable t = read_exr(dir / "tiled.exr");
+    const BrdfTable ours = read_exr(dir / "a.exr");
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(t.channels[c], ours.channels[c]);
+}
+
+TEST(ExrRead, WrongSize) {
+    TempDir dir;
+    const fs::path p = dir / "small.exr";
+    test::ExrSpecimen s;
+    s.height = 100;
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(read_exr(p), FormatError,
+                         p.string() + ": wrong size 180 x 100 (a BRDF table is 180 x 8100)");
+    s.height = 8100;
+    s.width = 360;
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(read_exr(p), FormatError,
+                         p.string() + ": wrong size 360 x 8100 (a BRDF table is 180 x 8100)");
+}
+
+TEST(ExrRead, MissingChannel) {
+    TempDir dir;
+    const fs::path p = dir / "rb.exr";
+    test::ExrSpecimen s;
+    s.channels = {"R", "B"};
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(read_exr(p), FormatError, p.string() + ": missing channel G (found B, R)");
+    s.channels = {"Y"};
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(read_exr(p), FormatError, p.string() + ": missing channel R (found Y)");
+}
+
+TEST(ExrRead, LayoutAndUnitsAttributes) {
+    TempDir dir;
+    const fs::path p = dir / "attr.exr";
+    test::ExrSpecimen s;
+    s.height = 100; // the attribute is checked first: it says what the file is meant to be
+    s.attributes = {};
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(
+        read_exr(p), FormatError,
+        p.string() + ": missing attribute brdf.layout (expected \"merl-halfdiff-90x90x180\")");
+    s.attributes = {{"brdf.layout", "merl-halfdiff-90x90x360"}};
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(read_exr(p), FormatError,
+                         p.string() +
+                             ": attribute brdf.layout is \"merl-halfdiff-90x90x360\" (expected "
+                             "\"merl-halfdiff-90x90x180\")");
+    s.height = 8100;
+    s.attributes = {{"brdf.layout", "merl-halfdiff-90x90x180"}, {"brdf.units", "W/(m2 sr)"}};
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(read_exr(p), FormatError,
+                         p.string() +
+                             ": attribute brdf.units is \"W/(m2 sr)\" (expected \"1/sr\")");
+}
+
+TEST(ExrRead, NonFiniteOrNegativeValueInACellAboveTheHorizon) {
+    TempDir dir;
+    const fs::path p = dir / "nan.exr";
+    test::ExrSpecimen s;
+    s.value = std::nanf("");
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(
+        read_exr(p), FormatError,
+        p.string() + ": non-finite value NaN in channel R at cell theta_h 0, theta_d 0, phi_d 0");
+    s.value = -0.5f;
+    test::write_exr_specimen(p, s);
+    EXPECT_THROW_MESSAGE(
+        read_exr(p), FormatError,
+        p.string() + ": negative value -0.5 in channel R at cell theta_h 0, theta_d 0, phi_d 0");
+}
+
+TEST(ExrRead, ValuesBelowTheHorizonAreIgnored) {
+    // Another tool may store anything there (MERL's -1, NaN): the cells hold no data either way.
+    TempDir dir;
+    const fs::path p = dir / "a.exr";
+    write_exr(p, test::analytic_table());
+    auto in = OIIO::ImageInput::open(p.string());
+    ASSERT_TRUE(in);
+    OIIO::ImageSpec spec = in->spec();
+    std::vector<float> pixels(std::size_t{180} * 8100 * 3);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::FLOAT, pixels.data()));
+    in->close();
+    for (std::size_t cell = 0; cell < cells; ++cell)
+        if (cell_below_horizon(cell)) pixels[cell * 3] = cell % 2 ? -1.0f : std::nanf("");
+    auto out = OIIO::ImageOutput::create(p.string());
+    ASSERT_TRUE(out);
+    ASSERT_TRUE(out->open((dir / "b.exr").string(), spec));
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()));
+    out->close();
+    const BrdfTable back = read_exr(dir / "b.exr");
+    EXPECT_EQ(back.data_cells(), cells - 361784);
+    EXPECT_EQ(back.spec, test::analytic_table().spec); // OpenImageIO kept our attributes
+}
+
+TEST(ExrRead, NotAnExrEmptyTruncatedDirectoryMissing) {
+    TempDir dir;
+    const fs::path text = dir / "text.exr";
+    test::write_file(text, "this is not an image\n");
+    EXPECT_THROW_MESSAGE(read_exr(text), FormatError, text.string() + ": not an OpenEXR file");
+    const fs::path empty = dir / "empty.exr";
+    test::write_file(empty, "");
+    EXPECT_THROW_MESSAGE(read_exr(empty), FormatError, empty.string() + ": empty file");
+
+    const fs::path cut = dir / "cut.exr";
+    write_exr(dir / "whole.exr", test::analytic_table());
+    const std::string whole = test::read_file(dir / "whole.exr");
+    for (std::size_t keep :
+         {std::size_t{20}, std::size_t{400}, whole.size() / 2, whole.size() - 10}) {
+        test::write_file(cut, whole.substr(0, keep));
+        try {
+            read_exr(cut);
+            ADD_FAILURE() << "a file cut to " << keep << " bytes was read";
+        } catch (const FormatError& e) {
+            const std::string m = e.what();
+            EXPECT_EQ(m.rfind(cut.string() + ": ", 0), 0u) << m;
+        }
+    }
+    fs::create_directory(dir / "folder.exr");
+    EXPECT_THROW_MESSAGE(read_exr(dir / "folder.exr"), IoError,
+                         (dir / "folder.exr").string() + ": is a directory, not a table file");
+    EXPECT_THROW_MESSAGE(read_exr(dir / "missing.exr"), IoError,
+                         (dir / "missing.exr").string() +
+                             ": cannot open: No such file or directory");
+}
+
+// A header that claims a billion scanlines must not make anyone allocate for them.
+TEST(ExrRead, HugeDataWindowIsRefusedWithoutAHugeAllocation) {
+    TempDir dir;
+    write_exr(dir / "a.exr", test::analytic_table());
+    std::string bytes = test::read_file(dir / "a.exr");
+    for (const std::string name : {"dataWindow", "displayWindow"}) {
+        const std::string key = name + std::string("\0box2i\0", 7);
+        const std::size_t at = bytes.find(key);
+        ASSERT_NE(at, std::string::npos);
+        const std::int32_t max_y = 1000000000; // box2i: size int32, then xmin ymin xmax ymax
+        std::memcpy(&bytes[at + key.size() + 4 + 12], &max_y, 4);
+    }
+    const fs::path p = dir / "bomb.exr";
+    test::write_file(p, bytes);
+    const test::AllocationProbe probe;
+    EXPECT_THROW_MESSAGE(read_exr(p), FormatError,
+                         p.string() + ": wrong size 180 x 1000000001 (a BRDF table is 180 x 8100)");
+    EXPECT_LT(probe.largest(), std::size_t{64} << 20);
+}
+
+// An attribute that claims 2 GiB in a 1 MB file: OpenEXR 3.1's C++ API would allocate it; the Core
+// header check in front of it refuses the file first.
+TEST(ExrRead, HugeAttributeIsRefusedWithoutAHugeAllocation) {
+    TempDir dir;
+    write_exr(dir / "a.exr", test::analytic_table());
+    std::string bytes = test::read_file(dir / "a.exr");
+    std::string attribute("zz\0blob\0", 8);
+    const std::int32_t size = 0x7ffffff0;
+    attribute.append(reinterpret_cast<const char*>(&size), 4);
+    attribute += "abc";
+    bytes.insert(8, attribute); // right after the magic number and version
+    const fs::path p = dir / "bomb.exr";
+    test::write_file(p, bytes);
+    const test::AllocationProbe probe;
+    try {
+        read_exr(p);
+        ADD_FAILURE() << "read";
+    } catch (const FormatError& e) {
+        const std::string m = e.what();
+        EXPECT_EQ(m.rfind(p.string() + ": OpenEXR: ", 0), 0u) << m;
+        EXPECT_NE(m.find("Invalid size 2147483632"), std::string::npos) << m;
+    }
+    EXPECT_LT(probe.largest(), std::size_t{64} << 20);
+}
+
+TEST(ExrRead, CheckedInSpecimens) {
+    const fs::path bad = test::source_dir() / "tests/data/bad";
+    EXPECT_THROW_MESSAGE(read_exr(bad / "exr_missing_channel.exr"), FormatError,
+                         (bad / "exr_missing_channel.exr").string() +
+                             ": missing channel G (found B, R)");
+    EXPECT_THROW_MESSAGE(read_exr(bad / "exr_wrong_size.exr"), FormatError,
+                         (bad / "exr_wrong_size.exr").string() +
+                             ": wrong size 180 x 100 (a BRDF table is 180 x 8100)");
+}
+
+TEST(ExrWrite, BadTableIsRefusedAndNothingIsLeftBehind) {
+    TempDir dir;
+    BrdfTable t;
+    t.channels[2][cell_index(0, 0, 1)] = INFINITY;
+    EXPECT_THROW_MESSAGE(write_exr(dir / "a.exr", t), NumericalError,
+                         (dir / "a.exr").string() +
+                             ": blue value inf at cell theta_h 0, theta_d 0, phi_d 1 "
+                             "(a BRDF must be finite and >= 0, or -1 in all three "
+                             "channels for no data)");
+    EXPECT_TRUE(fs::is_empty(dir.path()));
+    write_exr(dir / "a.exr", test::analytic_table());
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+}
+
+// An I/O error inside OpenEXR's writer comes out as our IoError, and nothing is left behind.
+TEST(ExrWrite, FailedWriteKeepsTheOldFileAndRemovesTheTemporary) {
+    TempDir dir;
+    const fs::path p = dir / "a.exr";
+    test::write_file(p, "old");
+    std::signal(SIGXFSZ, SIG_IGN);
+    rlimit old_limit{};
+    ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old_limit), 0);
+    rlimit small = old_limit;
+    small.rlim_cur = 16 << 10; // the analytic table compresses to far more than 16 kB
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+    bool threw = false;
+    try {
+        write_exr(p, test::analytic_table());
+    } catch (const IoError& e) {
+        threw = true;
+        EXPECT_EQ(std::string(e.what()), p.string() + ": write failed: File too large");
+    }
+    setrlimit(RLIMIT_FSIZE, &old_limit);
+    EXPECT_TRUE(threw);
+    EXPECT_EQ(test::read_file(p), "old");
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
+}
+
+} // namespace
+} // namespace brdf::formats

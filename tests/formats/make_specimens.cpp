@@ -1,0 +1,22 @@
+// Writes the small malformed tables checked in under tests/data/bad (see the README there):
+//   make_format_specimens <folder>
+// The MERL specimens are compared byte for byte with these definitions by the tests.
+
+#include "format_test_util.h"
+
+#include "test_support.h"
+
+#include <cstdio>
+#include <filesystem>
+
+int main(int argc, char** argv) {
+    if (argc != 2) {
+        std::fprintf(stderr, "usage: make_format_specimens FOLDER\n");
+        return 2;
+    }
+    const std::filesystem::path folder = argv[1];
+    for (const brdf::test::MerlSpecimen& s : brdf::test::merl_specimens())
+        brdf::test::write_file(folder / s.name, s.bytes);
+    brdf::test::write_exr_specimens(folder);
+    return 0;
+}
