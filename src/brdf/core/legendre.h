@@ -1,0 +1,27 @@
+#pragma once
+// Legendre polynomials and normalised associated Legendre functions, the building blocks of the
+// Fourier decomposition of a phase function (PHYSICS.md section 3; Mishchenko et al. 1999, JQSRT 63,
+// 409, eq. 10):
+//   p^m(mu, mu') = sum_{l >= m} beta_l Pbar_l^m(mu) Pbar_l^m(mu'),
+//   Pbar_l^m = sqrt((l - m)! / (l + m)!) P_l^m   (no Condon-Shortley phase: it cancels in products).
+// The normalised functions stay O(1) for every l and m, so the upward recurrence in l is stable for
+// l in the thousands where P_l^m itself overflows.
+
+#include <span>
+#include <vector>
+
+namespace brdf {
+
+/// Pbar_l^m(x) for l = m .. lmax into out[l - m] (out.size() >= lmax - m + 1); x in [-1, 1], m >= 0.
+void normalized_legendre(int m, int lmax, double x, std::span<double> out);
+
+/// The same, returned as a vector of lmax - m + 1 values.
+std::vector<double> normalized_legendre(int m, int lmax, double x);
+
+/// Legendre polynomials P_l(x), l = 0 .. lmax, into out (out.size() >= lmax + 1).
+void legendre_polynomials(int lmax, double x, std::span<double> out);
+
+/// sum_l beta_l P_l(x): a phase function from its Legendre coefficients (Clenshaw summation).
+double legendre_series(std::span<const double> beta, double x);
+
+} // namespace brdf

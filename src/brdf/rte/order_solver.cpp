@@ -1,0 +1,171 @@
+#include <brdf/rte/order_solver.h>
+
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+#include <brdf/rte/phase.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace brdf::rte {
+namespace {
+
+constexpr int max_doubling_steps = 100;
+
+bool finite(const Matrix& x) {
+    return std::all_of(x.data().begin(), x.data().end(), [](double v) { return std::isfinite(v); });
+}
+
+// [P Q] as one n x 2n matrix, so one LU solve serves both right-hand sides of a doubling step.
+Matrix side_by_side(const Matrix& p, const Matrix& q) {
+    Matrix out(p.rows(), p.cols() + q.cols());
+    for (int i = 0; i < p.rows(); ++i) {
+        std::copy(p.row(i).begin(), p.row(i).end(), out.row(i).begin());
+        std::copy(q.row(i).begin(), q.row(i).end(), out.row(i).begin() + p.cols());
+    }
+    return out;
+}
+
+Matrix columns(const Matrix& m, int first, int count) {
+    Matrix out(m.rows(), count);
+    for (int i = 0; i < m.rows(); ++i)
+        std::copy_n(m.row(i).begin() + first, count, out.row(i).begin());
+    return out;
+}
+
+} // namespace
+
+std::string_view to_string(Method method) {
+    return method == Method::FixedPoint ? "fixed-point" : "doubling";
+}
+
+OrderProblem make_order_problem(std::span<const double> beta, double omega, int m, const Streams& streams) {
+    PhasePair p = phase_components(beta, m, streams.mu, streams.mu);
+    return OrderProblem{m, omega, streams, std::move(p.plus), std::move(p.minus)};
+}
+
+RiccatiMatrices riccati_matrices(const OrderProblem& pr) {
+    const int n = pr.streams.size();
+    const auto& mu = pr.streams.mu;
+    const auto& w = pr.streams.w;
+    const double om = pr.omega;
+    RiccatiMatrices r{Matrix(n, n), Matrix(n, n), Matrix(n, n), Matrix(n, n)};
+    for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) {
+            r.b(i, j) = 0.25 * om * pr.p_minus(i, j) / (mu[i] * mu[j]);
+            r.c(i, j) = om * w[i] * pr.p_minus(i, j) * w[j];
+            r.d(i, j) = (i == j ? 1.0 / mu[i] : 0.0) - 0.5 * om * w[i] * pr.p_plus(i, j) / mu[j];
+        }
+    }
+    r.a = transpose(r.d);
+    return r;
+}
+
+double riccati_residual(const RiccatiMatrices& r, const Matrix& x) {
+    const Matrix xcx = x * r.c * x;
+    const Matrix xd = x * r.d;
+    const Matrix ax = r.a * x;
+    const Matrix res = xcx - xd - ax + r.b;
+    const double scale = std::max({max_abs(xcx), max_abs(xd), max_abs(ax), max_abs(r.b)});
+    return scale > 0.0 ? max_abs(res) / scale : 0.0;
+}
+
+OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& control) {
+    // The seed paper's iteration: (1/mu_i + 1/mu_j) X_ij = [B + (w/2) M^-1 P+ W X + (w/2) X W P+ M^-1
+    // + w X W P- W X]_ij, from X = 0. Each sweep is a few matrix products.
+    const int n = pr.streams.size();
+    const auto& mu = pr.streams.mu;
+    const auto& w = pr.streams.w;
+    const double om = pr.omega;
+    Matrix left(n, n), right(n, n), c(n, n), b(n, n);
+    for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) {
+            left(i, j) = 0.5 * om * pr.p_plus(i, j) * w[j] / mu[i];  // (w/2) M^-1 P+ W
+            right(i, j) = 0.5 * om * w[i] * pr.p_plus(i, j) / mu[j]; // (w/2) W P+ M^-1
+            c(i, j) = om * w[i] * pr.p_minus(i, j) * w[j];
+            b(i, j) = 0.25 * om * pr.p_minus(i, j) / (mu[i] * mu[j]);
+        }
+    }
+    OrderSolution s;
+    s.x = Matrix(n, n);
+    for (s.iterations = 1; s.iterations <= control.max_iterations; ++s.iterations) {
+        Matrix next = b + left * s.x + s.x * right + s.x * c * s.x;
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) next(i, j) /= 1.0 / mu[i] + 1.0 / mu[j];
+        const double change = max_abs_diff(next, s.x);
+        s.x = std::move(next);
+        if (!finite(s.x)) throw NumericalError(cat("fixed-point iteration diverged at order ", pr.m));
+        if (change <= control.tolerance * max_abs(s.x)) {
+            s.converged = true;
+            break;
+        }
+    }
+    s.iterations = std::min(s.iterations, control.max_iterations);
+    s.residual = riccati_residual(riccati_matrices(pr), s.x);
+    return s;
+}
+
+OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control) {
+    const int n = pr.streams.size();
+    RiccatiMatrices r = riccati_matrices(pr);
+    if (pr.conservative()) {
+        // H = [D -C; B -A] has the right null vector v = [2 W mu; e] at w = 1, m = 0 (it encodes
+        // sum_j w_j (p+ + p-)_ij = 2). H + eta v p^T with p = [e; 0] / (e . v1) moves that eigenvalue
+        // from 0 to eta and leaves the invariant subspace [I; X] alone: only D and B change.
+        std::vector<double> v1(static_cast<std::size_t>(n));
+        double ev1 = 0.0;
+        for (int i = 0; i < n; ++i) ev1 += (v1[i] = 2.0 * pr.streams.w[i] * pr.streams.mu[i]);
+        const double eta = 1.0;
+        for (int i = 0; i < n; ++i) {
+            for (int j = 0; j < n; ++j) {
+                r.d(i, j) += eta * v1[i] / ev1;
+                r.b(i, j) += eta / ev1;
+            }
+        }
+    }
+    const double g = control.gamma;
+    const Matrix eye = Matrix::identity(n);
+    const Matrix a_g = r.a + g * eye;
+    const Matrix d_g = r.d + g * eye;
+    // Cayley-transformed start (Guo, Lin and Xu 2006, eqs. 2.6-2.8):
+    //   W = A_g - B D_g^-1 C, V = D_g - C A_g^-1 B, E0 = I - 2g V^-1, F0 = I - 2g W^-1,
+    //   G0 = 2g D_g^-1 C W^-1, H0 = 2g W^-1 B D_g^-1.
+    const Matrix dinv = solve(d_g, eye);
+    const Matrix ainv = solve(a_g, eye);
+    const Matrix winv = solve(a_g - r.b * dinv * r.c, eye);
+    const Matrix vinv = solve(d_g - r.c * ainv * r.b, eye);
+    Matrix e = eye - 2.0 * g * vinv;
+    Matrix f = eye - 2.0 * g * winv;
+    Matrix gm = 2.0 * g * (dinv * r.c * winv);
+    Matrix hm = 2.0 * g * (winv * r.b * dinv);
+
+    OrderSolution s;
+    for (s.iterations = 1; s.iterations <= max_doubling_steps; ++s.iterations) {
+        // E1 = E (I - G H)^-1 E, G1 = G + E (I - G H)^-1 G F, and symmetrically for F and H.
+        Matrix z = side_by_side(e, gm * f);
+        LuFactor(eye - gm * hm).solve(z);
+        Matrix y = side_by_side(f, hm * e);
+        LuFactor(eye - hm * gm).solve(y);
+        Matrix e1 = e * columns(z, 0, n);
+        Matrix g1 = gm + e * columns(z, n, n);
+        Matrix f1 = f * columns(y, 0, n);
+        Matrix h1 = hm + f * columns(y, n, n);
+        const double change = max_abs_diff(h1, hm);
+        e = std::move(e1), f = std::move(f1), gm = std::move(g1), hm = std::move(h1);
+        if (!finite(hm)) throw NumericalError(cat("doubling diverged at order ", pr.m, ", omega ", pr.omega));
+        if (change <= control.tolerance * max_abs(hm)) {
+            s.converged = true;
+            break;
+        }
+    }
+    s.iterations = std::min(s.iterations, max_doubling_steps);
+    s.x = std::move(hm);
+    s.residual = riccati_residual(riccati_matrices(pr), s.x);
+    return s;
+}
+
+OrderSolution solve_order(const OrderProblem& problem, Method method, const SolveControl& control) {
+    return method == Method::FixedPoint ? solve_fixed_point(problem, control) : solve_doubling(problem, control);
+}
+
+} // namespace brdf::rte

@@ -1,0 +1,63 @@
+#pragma once
+// One Fourier order of Ambartsumian's nonlinear integral equation for the reflection function of a
+// semi-infinite medium (PHYSICS.md section 3; Ambartsumian 1943; Mishchenko et al. 1999, eq. 16).
+// Discretised on the streams it is the nonsymmetric algebraic Riccati equation (NARE)
+//   X C X - X D - A X + B = 0,                       X_ij = R^m(mu_i, mu_j),
+//   B = (w/4) M^-1 P- M^-1,  C = w W P- W,  D = M^-1 - (w/2) W P+ M^-1,  A = D^T,
+// with M = diag(mu), W = diag(weights), P+- = p^m(+-mu_i, mu_j) and w the single-scattering albedo.
+// Two solvers, each the plain C++ reference of an OpenCL kernel (kernels/ambartsumian.cl):
+//  - the seed paper's fixed-point iteration (Chen et al.), the baseline: O(1/sqrt(1 - w)) iterations;
+//  - structure-preserving doubling (SDA; Guo, Lin and Xu 2006, Numer. Math. 103, 393), quadratically
+//    convergent; at the critical case w = 1, m = 0 the zero eigenvalue pair of the Hamiltonian-like
+//    matrix is split by a rank-one shift along the conservation null vector (Guo, Iannazzo and Meini
+//    2007, SIAM J. Matrix Anal. Appl. 29, 1083), which keeps energy conservation exact.
+
+#include <brdf/core/linalg.h>
+#include <brdf/rte/streams.h>
+
+#include <string_view>
+
+namespace brdf::rte {
+
+enum class Method { FixedPoint, Doubling };
+std::string_view to_string(Method method);
+
+struct OrderProblem {
+    int m = 0;
+    double omega = 0.0;   ///< single-scattering albedo in [0, 1] (delta-M scaled)
+    Streams streams;
+    Matrix p_plus;        ///< p^m(mu_i, mu_j)
+    Matrix p_minus;       ///< p^m(-mu_i, mu_j)
+    /// True at w = 1, m = 0: the equation is critical and conserves energy exactly.
+    bool conservative() const { return m == 0 && omega >= 1.0; }
+};
+
+/// Builds the problem for order m from the (scaled) Legendre coefficients.
+OrderProblem make_order_problem(std::span<const double> beta, double omega, int m, const Streams& streams);
+
+struct RiccatiMatrices {
+    Matrix a, b, c, d;
+};
+RiccatiMatrices riccati_matrices(const OrderProblem& problem);
+
+struct SolveControl {
+    double tolerance = 1e-13;    ///< stop when max |X_k+1 - X_k| <= tolerance * max |X_k+1|
+    int max_iterations = 100000; ///< fixed point; doubling stops at 100 steps whatever this says
+    double gamma = 1.0;          ///< doubling's Cayley parameter (order 1 keeps full accuracy, PHYSICS.md)
+};
+
+struct OrderSolution {
+    Matrix x;               ///< R^m(mu_i, mu_j)
+    int iterations = 0;
+    double residual = 0.0;  ///< relative NARE residual of x
+    bool converged = false;
+};
+
+OrderSolution solve_fixed_point(const OrderProblem& problem, const SolveControl& control = {});
+OrderSolution solve_doubling(const OrderProblem& problem, const SolveControl& control = {});
+OrderSolution solve_order(const OrderProblem& problem, Method method, const SolveControl& control = {});
+
+/// max |X C X - X D - A X + B| / max(|X C X|, |X D|, |A X|, |B|): 0 for an exact solution.
+double riccati_residual(const RiccatiMatrices& r, const Matrix& x);
+
+} // namespace brdf::rte

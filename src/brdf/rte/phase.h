@@ -1,0 +1,45 @@
+#pragma once
+// Phase functions as Legendre series and their Fourier components (PHYSICS.md section 3):
+//   p(cos T) = sum_l beta_l P_l(cos T),  beta_0 = 1,
+//   p^m(mu, mu') = sum_{l >= m} beta_l Pbar_l^m(mu) Pbar_l^m(mu').
+// Delta-M truncation (Wiscombe 1977, J. Atmos. Sci. 34, 1408, eqs. 5-7) keeps the series short for
+// forward-peaked phase functions; the exact single scattering is added back later (Nakajima and
+// Tanaka 1988, JQSRT 40, 51: the TMS correction).
+
+#include <brdf/core/linalg.h>
+
+#include <span>
+#include <vector>
+
+namespace brdf::rte {
+
+/// A scattering medium: single-scattering albedo and the phase function's Legendre coefficients.
+struct Medium {
+    double omega = 0.0;        ///< single-scattering albedo in [0, 1]
+    std::vector<double> beta;  ///< beta_l, beta_0 = 1
+};
+
+/// Phase-function value p(cos T) from its Legendre series.
+double phase_value(std::span<const double> beta, double cos_theta);
+
+struct DeltaM {
+    Medium scaled;   ///< omega' and beta' with beta'_l = 0 for l >= L
+    double f = 0.0;  ///< the truncated forward fraction chi_L
+};
+
+/// Delta-M scaling with L the first order not kept (L = 2N for N streams). f = 0 (no change) when the
+/// series is already shorter than L.
+DeltaM delta_m(const Medium& medium, int first_dropped);
+
+/// psi(i, l - m) = Pbar_l^m(mu_i), l = m .. lmax.
+Matrix legendre_basis(int m, int lmax, std::span<const double> mu);
+
+/// p^m(s * mu_rows[i], mu_cols[j]) for s = +1 and -1, from the bases of both sets.
+struct PhasePair {
+    Matrix plus;  ///< p^m(mu_i, mu_j)
+    Matrix minus; ///< p^m(-mu_i, mu_j)
+};
+PhasePair phase_components(std::span<const double> beta, int m, std::span<const double> mu_rows,
+                           std::span<const double> mu_cols);
+
+} // namespace brdf::rte

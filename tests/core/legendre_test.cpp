@@ -1,0 +1,64 @@
+// Normalised associated Legendre functions and Legendre series: closed forms, the addition theorem
+// and stability at high degree.
+
+#include <brdf/core/error.h>
+#include <brdf/core/legendre.h>
+#include <brdf/core/linalg.h>
+#include <test_support.h>
+
+#include <cmath>
+
+namespace brdf::test {
+namespace {
+
+TEST(Legendre, LowOrdersMatchClosedForms) {
+    for (double x : {-0.9, -0.3, 0.0, 0.45, 0.99}) {
+        const double s = std::sqrt(1 - x * x);
+        const auto p0 = normalized_legendre(0, 3, x);
+        EXPECT_NEAR(p0[2], 0.5 * (3 * x * x - 1), 1e-15);
+        EXPECT_NEAR(p0[3], 0.5 * (5 * x * x * x - 3 * x), 1e-15);
+        // Pbar_2^1 = sqrt(1/6) * 3 x s, Pbar_2^2 = sqrt(1/24) * 3 s^2 (no Condon-Shortley phase).
+        EXPECT_NEAR(normalized_legendre(1, 2, x)[1], std::sqrt(1.0 / 6.0) * 3 * x * s, 1e-15);
+        EXPECT_NEAR(normalized_legendre(2, 2, x)[0], std::sqrt(1.0 / 24.0) * 3 * s * s, 1e-15);
+    }
+}
+
+TEST(Legendre, AdditionTheoremHoldsAtHighDegree) {
+    // sum_m (2 - delta_m0) Pbar_l^m(x)^2 = P_l(1) = 1 for every l: a sharp test of the normalisation.
+    const int lmax = 3000;
+    for (double x : {0.0, 0.31, 0.77, 0.999}) {
+        std::vector<double> sum(lmax + 1, 0.0);
+        for (int m = 0; m <= lmax; ++m) {
+            const auto p = normalized_legendre(m, lmax, x);
+            for (int l = m; l <= lmax; ++l) sum[l] += (m == 0 ? 1.0 : 2.0) * p[l - m] * p[l - m];
+        }
+        for (int l : {0, 1, 10, 500, 3000}) EXPECT_NEAR(sum[l], 1.0, 1e-10) << "l " << l << " x " << x;
+    }
+}
+
+TEST(Legendre, SeriesMatchesDirectSum) {
+    const std::vector<double> beta = {1.0, 1.5, 0.8, -0.2, 0.05};
+    for (double x : {-1.0, -0.2, 0.6, 1.0}) {
+        std::vector<double> p(beta.size());
+        legendre_polynomials(static_cast<int>(beta.size()) - 1, x, p);
+        double direct = 0;
+        for (std::size_t l = 0; l < beta.size(); ++l) direct += beta[l] * p[l];
+        EXPECT_NEAR(legendre_series(beta, x), direct, 1e-14);
+    }
+}
+
+TEST(Linalg, LuSolvesAndRejectsSingular) {
+    Matrix a(3, 3);
+    const double v[9] = {0, 2, 1, 1, 1, 1, 4, 0, 3}; // needs pivoting (a_00 = 0)
+    std::copy(v, v + 9, a.data().begin());
+    Matrix b(3, 1);
+    b(0, 0) = 1, b(1, 0) = 2, b(2, 0) = 3;
+    const Matrix x = solve(a, b);
+    const Matrix back = a * x;
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(back(i, 0), b(i, 0), 1e-14);
+    Matrix s(2, 2, 1.0);
+    EXPECT_THROW(LuFactor{s}, NumericalError);
+}
+
+} // namespace
+} // namespace brdf::test

@@ -1,0 +1,112 @@
+// Accuracy of the reflection function: Chandrasekhar's exact isotropic solution, energy
+// conservation at albedo 1 (with and without the interface), reciprocity, azimuth convention.
+
+#include "rte_test_support.h"
+
+#include <brdf/rte/reflection.h>
+#include <test_support.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <numbers>
+
+namespace brdf::test {
+namespace {
+
+struct HCase {
+    double omega;
+    std::vector<double> mu, h;
+};
+
+std::vector<HCase> chandrasekhar_cases() {
+    const auto j = nlohmann::json::parse(read_file(source_dir() / "tests/reference/rte/chandrasekhar_h.json"));
+    std::vector<HCase> out;
+    for (const auto& c : j["cases"]) out.push_back({c["omega"], c["mu"], c["h"]});
+    return out;
+}
+
+// Max relative error of the BRDF against R = (w/4) H H / (mu + mu0) over all pairs of reference angles.
+double isotropic_error(const HCase& c, int streams) {
+    const rte::Reflection r = solve_cpu({c.omega, {1.0}}, streams);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < c.mu.size(); ++i) {
+        for (std::size_t o = 0; o < c.mu.size(); ++o) {
+            const double exact = 0.25 * c.omega * c.h[i] * c.h[o] / (c.mu[i] + c.mu[o]) / std::numbers::pi;
+            const double got = r.brdf(c.mu[i], c.mu[o], 0.7);
+            worst = std::max(worst, std::abs(got - exact) / exact);
+        }
+    }
+    return worst;
+}
+
+TEST(Isotropic, MatchesChandrasekharAtDefaultAccuracy) {
+    for (const HCase& c : chandrasekhar_cases()) {
+        const double err = isotropic_error(c, 32);
+        EXPECT_LE(err, 1e-4) << "omega " << c.omega;
+    }
+}
+
+TEST(Isotropic, MatchesChandrasekharAtReferenceAccuracy) {
+    for (const HCase& c : chandrasekhar_cases()) {
+        const double err = isotropic_error(c, 64);
+        EXPECT_LE(err, 1e-6) << "omega " << c.omega;
+    }
+}
+
+TEST(Isotropic, FixedPointAndDoublingAgree) {
+    const rte::Reflection a = solve_cpu({0.9, {1.0}}, 16, 1.0, rte::Method::FixedPoint);
+    const rte::Reflection b = solve_cpu({0.9, {1.0}}, 16, 1.0, rte::Method::Doubling);
+    EXPECT_LE(max_abs_diff(a.solutions()[0].x, b.solutions()[0].x), 1e-11 * max_abs(b.solutions()[0].x));
+}
+
+TEST(Conservation, PlaneAlbedoIsOneAtAlbedoOne) {
+    const std::vector<std::vector<double>> phases = {{1.0}, rayleigh_beta(), hg_beta(0.5, 200), hg_beta(0.9, 400),
+                                                     hg_beta(-0.5, 200)};
+    for (const auto& beta : phases) {
+        const rte::Reflection r = solve_cpu({1.0, beta}, 24);
+        for (double mu : {1.0, 0.8, 0.5, 0.2, 0.05, 0.001})
+            EXPECT_NEAR(r.albedo(mu), 1.0, 1e-9) << "beta size " << beta.size() << " mu " << mu;
+    }
+}
+
+TEST(Conservation, MirrorPlusDiffuseIsOneUnderAnInterface) {
+    for (double n : {1.33, 1.5, 1.8}) {
+        const rte::Reflection r = solve_cpu({1.0, hg_beta(0.6, 200)}, 24, n);
+        for (double mu : {1.0, 0.7, 0.3, 0.05})
+            EXPECT_NEAR(r.albedo(mu) + r.mirror(mu), 1.0, 1e-9) << "n " << n << " mu " << mu;
+    }
+}
+
+TEST(Reciprocity, BrdfIsSymmetric) {
+    for (double n : {1.0, 1.5}) {
+        const rte::Reflection r = solve_cpu({0.95, hg_beta(0.7, 300)}, 16, n);
+        for (double a : {0.9, 0.4, 0.1})
+            for (double b : {0.95, 0.3, 0.02})
+                for (double phi : {0.0, 1.0, 3.0}) {
+                    const double f = r.brdf(a, b, phi), g = r.brdf(b, a, phi);
+                    EXPECT_NEAR(f, g, 1e-12 * std::max(1.0, f)) << a << " " << b << " " << phi << " n " << n;
+                }
+    }
+}
+
+TEST(Azimuth, ForwardScatteringLobeIsOnTheMirrorSide) {
+    const rte::Reflection r = solve_cpu({0.9, hg_beta(0.9, 400)}, 32);
+    const double mu = std::cos(60.0 * std::numbers::pi / 180.0);
+    EXPECT_GT(r.brdf(mu, mu, std::numbers::pi), 3.0 * r.brdf(mu, mu, 0.0));
+}
+
+TEST(Grazing, FiniteAndNonNegative) {
+    for (double n : {1.0, 1.5}) {
+        const rte::Reflection r = solve_cpu({1.0, hg_beta(0.8, 300)}, 16, n);
+        for (double a : {0.0, 1e-9, 1e-3, 1.0})
+            for (double b : {0.0, 1e-9, 0.5, 1.0})
+                for (double phi : {0.0, 2.0, std::numbers::pi}) {
+                    const double f = r.brdf(a, b, phi);
+                    EXPECT_TRUE(std::isfinite(f) && f >= 0.0) << a << " " << b << " " << phi << ": " << f;
+                }
+    }
+}
+
+} // namespace
+} // namespace brdf::test
