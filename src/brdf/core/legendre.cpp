@@ -3,6 +3,7 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace brdf {
@@ -11,15 +12,23 @@ void normalized_legendre(int m, int lmax, double x, std::span<double> out) {
     if (m < 0 || lmax < m || out.size() < static_cast<std::size_t>(lmax - m + 1))
         throw InputError(cat("normalized_legendre: bad order/degree (m = ", m, ", lmax = ", lmax, ")"));
     const double s = std::sqrt(std::max(0.0, (1.0 - x) * (1.0 + x)));
-    // Pbar_m^m = sqrt((2m - 1)!! ^ 2 / (2m)!) s^m, built as a product of factors sqrt((2k-1)/(2k)) s,
-    // each below 1, so it underflows gracefully to 0 (where it is negligible) instead of overflowing.
-    double pmm = 1.0;
-    for (int k = 1; k <= m; ++k) pmm *= std::sqrt((2.0 * k - 1.0) / (2.0 * k)) * s;
-    out[0] = pmm;
+    const std::size_t count = static_cast<std::size_t>(lmax - m + 1);
+    if (m > 0 && s == 0.0) {
+        std::fill_n(out.begin(), count, 0.0);
+        return;
+    }
+    // Pbar_m^m = prod_{k=1..m} sqrt((2k - 1)/(2k)) s underflows for large m (s^m), and starting the
+    // recurrence from a denormal would amplify its few bits into O(1) garbage further up in l. So the
+    // recurrence runs on scaled values v_l = Pbar_l^m * 2^-e, starting from v_m = 1 with
+    // e = log2(Pbar_m^m), rescaling when v grows; values are unscaled on output (true zeros stay 0).
+    double e = 0.0;
+    for (int k = 1; k <= m; ++k) e += 0.5 * std::log2((2.0 * k - 1.0) / (2.0 * k)) + std::log2(s);
+    const auto emit = [&](std::size_t i, double v) { out[i] = (e < -1100.0) ? 0.0 : v * std::exp2(e); };
+    double prev = 1.0;
+    emit(0, prev);
     if (lmax == m) return;
-    double prev = pmm;
-    double cur = std::sqrt(2.0 * m + 1.0) * x * pmm; // Pbar_{m+1}^m
-    out[1] = cur;
+    double cur = std::sqrt(2.0 * m + 1.0) * x; // Pbar_{m+1}^m / 2^e
+    emit(1, cur);
     // (l - m) P_l^m = (2l - 1) x P_{l-1}^m - (l + m - 1) P_{l-2}^m, rescaled to the normalised functions.
     const double mm = static_cast<double>(m) * m;
     for (int l = m + 2; l <= lmax; ++l) {
@@ -28,7 +37,11 @@ void normalized_legendre(int m, int lmax, double x, std::span<double> out) {
             ((2.0 * l - 1.0) * x * cur - std::sqrt(lm1 * lm1 - mm) * prev) / std::sqrt(double(l) * l - mm);
         prev = cur;
         cur = next;
-        out[l - m] = cur;
+        if (e < 0.0 && std::abs(cur) > 0x1p+100) { // keep v moderate while the true values are tiny
+            prev *= 0x1p-100, cur *= 0x1p-100;
+            e += 100.0;
+        }
+        emit(static_cast<std::size_t>(l - m), cur);
     }
 }
 
