@@ -60,6 +60,24 @@ TEST(Isotropic, FixedPointAndDoublingAgree) {
     EXPECT_LE(max_abs_diff(a.solutions()[0].x, b.solutions()[0].x), 1e-11 * max_abs(b.solutions()[0].x));
 }
 
+TEST(Solvers, AllThreeAgreeOnEveryOrder) {
+    // HG g = 0.5 at albedo 0.99: m = 0 is slow for the fixed point, m >= 1 fast.
+    rte::ReflectionSettings settings;
+    settings.streams = 16;
+    const rte::ReflectionSetup setup = rte::setup_reflection({0.99, hg_beta(0.5, 100)}, {}, settings);
+    for (const auto& problem : rte::order_problems(setup)) {
+        const auto fp = rte::solve_order(problem, rte::Method::FixedPoint);
+        const auto sda = rte::solve_order(problem, rte::Method::Doubling);
+        const auto fast = rte::solve_order(problem, rte::Method::Fast);
+        const double scale = max_abs(sda.x);
+        EXPECT_TRUE(fp.converged && sda.converged && fast.converged) << "m " << problem.m;
+        EXPECT_LE(max_abs_diff(fp.x, sda.x), 1e-11 * scale) << "m " << problem.m;
+        EXPECT_LE(max_abs_diff(fast.x, sda.x), 1e-11 * scale) << "m " << problem.m;
+        EXPECT_LE(sda.iterations, 30) << "m " << problem.m;
+        EXPECT_LE(sda.residual, 1e-12) << "m " << problem.m;
+    }
+}
+
 TEST(Conservation, PlaneAlbedoIsOneAtAlbedoOne) {
     const std::vector<std::vector<double>> phases = {{1.0}, rayleigh_beta(), hg_beta(0.5, 200), hg_beta(0.9, 400),
                                                      hg_beta(-0.5, 200)};

@@ -19,7 +19,10 @@
 
 namespace brdf::rte {
 
-enum class Method { FixedPoint, Doubling };
+/// Fast (the default) runs the fixed point for orders that converge in a few sweeps (m >= 1, or low
+/// albedo) and switches to doubling when it does not converge within `fast_sweeps`; m = 0 at
+/// albedo > 0.9 goes straight to doubling.
+enum class Method { FixedPoint, Doubling, Fast };
 std::string_view to_string(Method method);
 
 struct OrderProblem {
@@ -44,6 +47,7 @@ struct SolveControl {
     double tolerance = 1e-13;    ///< stop when max |X_k+1 - X_k| <= tolerance * max |X_k+1|
     int max_iterations = 100000; ///< fixed point; doubling stops at 100 steps whatever this says
     double gamma = 1.0;          ///< doubling's Cayley parameter (order 1 keeps full accuracy, PHYSICS.md)
+    int fast_sweeps = 12;        ///< Method::Fast: fixed-point sweeps before switching to doubling
 };
 
 struct OrderSolution {
@@ -55,6 +59,7 @@ struct OrderSolution {
 
 OrderSolution solve_fixed_point(const OrderProblem& problem, const SolveControl& control = {});
 OrderSolution solve_doubling(const OrderProblem& problem, const SolveControl& control = {});
+OrderSolution solve_fast(const OrderProblem& problem, const SolveControl& control = {});
 OrderSolution solve_order(const OrderProblem& problem, Method method, const SolveControl& control = {});
 
 /// max |X C X - X D - A X + B| / max(|X C X|, |X D|, |A X|, |B|): 0 for an exact solution.

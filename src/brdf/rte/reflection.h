@@ -22,7 +22,7 @@ namespace brdf::rte {
 struct ReflectionSettings {
     int streams = 32;              ///< Gauss nodes in mu on (0, 1)
     double order_tolerance = 1e-5; ///< drop Fourier orders whose phase component is below this
-    Method method = Method::Doubling;
+    Method method = Method::Fast;
     SolveControl control;
 };
 
