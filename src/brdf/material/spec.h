@@ -1,0 +1,148 @@
+#pragma once
+// Material specs (DESIGN.md, "Material spec (JSON)"): parsing, validation and resolution of one
+// material or a catalogue {"materials": [...], "defaults": {...}} into MaterialSpec values that the
+// compute pipeline uses directly (index models ready to evaluate, size distributions built,
+// spectral set chosen).
+//
+// Validation reports every problem of a document at once, in one InputError, one line per problem:
+//   spec.json: materials[1].pigments[0].size.r_eff_um: must be > 0 (got -0.2)
+// The JSON path names the field as written; a problem in a catalogue's `defaults` is reported once,
+// at its `defaults.KEY` path. Warnings (extrapolated index data, dense pigment loads) do not fail a
+// spec: they are logged with log::warn and kept in MaterialSpec::warnings for the report.
+//
+// Resolution rules beyond DESIGN.md (extensions, never renames):
+//  - A pigment's or binder's index may be given as "material": ID | {"index": X} | {"nk": ROWS},
+//    or with the shorthand keys "index" / "nk" beside "volume_fraction" (pigment) or
+//    "absorption_per_mm" (binder). The resolved form is always "material": ...; an index X is a
+//    number (1.5) or a string ("2.7+0.01i", brdf::parse_complex_index); a binder's index must be
+//    real (its absorption is absorption_per_mm).
+//  - An optional "description" string is kept in the resolved spec.
+//  - "medium" takes an optional "index" (the medium's real refractive index), required with
+//    "surface": "smooth"; "phase" defaults to isotropic and may be written as a type string
+//    ("rayleigh") where the type has no parameters.
+//  - Catalogue defaults merge key by key at the top level (the material's own keys win); the model
+//    keys (binder, pigments) and (medium) form groups: a material that gives one group does not
+//    inherit the other from the defaults.
+//  - Explicit wavelength lists follow spectrum.h (wavelength_list_problems: each in
+//    [explicit_min_nm, explicit_max_nm], strictly increasing, at most max_explicit_wavelengths).
+
+#include <brdf/material/refractive_index.h>
+#include <brdf/material/spectrum.h>
+#include <brdf/mie/size_distribution.h>
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <complex>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace brdf::material {
+
+enum class Surface { None, Smooth };
+enum class PhaseType { Isotropic, Rayleigh, HenyeyGreenstein, Legendre };
+
+/// "none", "smooth".
+std::string_view to_string(Surface surface);
+/// "isotropic", "rayleigh", "henyey_greenstein", "legendre".
+std::string_view to_string(PhaseType type);
+
+/// Largest spec file load_specs reads (bytes); larger is a LimitError.
+inline constexpr std::size_t max_spec_file_bytes = 64u << 20;
+/// Most Legendre coefficients an analytic medium's phase function may list.
+inline constexpr std::size_t max_phase_coefficients = 10000;
+
+/// A pigment's or binder's refractive index.
+struct IndexSpec {
+    std::string id; ///< catalogue ID (canonical, aliases resolved), or "" for a constant / nk table
+    /// Ready to evaluate at any wavelength of the spec's spectrum (from the catalogue, a constant
+    /// or an nk table); the spec's wavelengths are checked to lie in its usable range.
+    IndexModel model = IndexModel::constant(1.0);
+    std::optional<std::complex<double>> constant; ///< n + i k when given as a constant index
+    std::vector<NkRow> nk;                        ///< the rows when given as an nk table
+
+    /// "tio2-rutile", "2.7+0.01i", "1.5", "nk table (12 rows)".
+    std::string describe() const;
+};
+
+struct PigmentSpec {
+    IndexSpec index;
+    double volume_fraction = 0.0;                      ///< in (0, 1]
+    mie::SizeDistribution size = mie::monodisperse(1.0); ///< radii in um
+};
+
+struct BinderSpec {
+    IndexSpec index;                ///< real index (k = 0 for constants; catalogue binders are clear)
+    double absorption_per_mm = 0.0; ///< absorption coefficient of the binder, 1/mm, >= 0
+};
+
+struct MediumSpec {
+    std::array<double, 3> albedo{1.0, 1.0, 1.0}; ///< single-scattering albedo r, g, b in [0, 1]
+    bool grey = true;                             ///< albedo was given as one number
+    PhaseType phase = PhaseType::Isotropic;
+    /// Asymmetry parameter <cos theta> of the phase function for every type (the given g for
+    /// Henyey-Greenstein, beta_1 / 3 for Legendre, 0 for isotropic and Rayleigh).
+    double g = 0.0;
+    /// beta_l, l = 0, 1, ... with beta_0 = 1: only for Legendre (as given, |beta_l| <= 2l + 1).
+    std::vector<double> coefficients;
+    /// The medium's real refractive index (for "surface": "smooth"), > 0; absent otherwise.
+    std::optional<double> index;
+};
+
+struct AccuracySpec {
+    std::string level = "default"; ///< "draft", "default", "reference" or "custom"
+    /// Relative BRDF error to meet: draft 1e-2, default 1e-4, reference 1e-6; custom in
+    /// [1e-8, 0.5].
+    double tolerance = 1e-4;
+};
+
+struct MaterialSpec {
+    std::string name;        ///< [A-Za-z0-9._-]{1,100}; names the output files
+    std::string description; ///< optional free text
+    // A particulate material (binder + one or more pigments), or an analytic medium.
+    std::optional<BinderSpec> binder;
+    std::vector<PigmentSpec> pigments;
+    std::optional<MediumSpec> medium;
+    Surface surface = Surface::Smooth;
+    SpectralSet spectrum = SpectralSet::visible();
+    AccuracySpec accuracy;
+    std::vector<std::string> outputs{"merl", "exr"}; ///< subset of "merl", "exr", in that order
+
+    /// The spec as resolved: defaults filled in, aliases resolved, numbers as doubles, keys in
+    /// canonical (sorted) order. parse_specs(resolved) gives the same material again.
+    nlohmann::json resolved;
+    /// 16 lowercase hex digits: FNV-1a 64 of resolved.dump(), stable across key order, whitespace
+    /// and equivalent spellings (1 vs 1.0, "acrylic" vs "pmma", defaults vs explicit values).
+    std::string hash;
+    /// Where it came from, for messages: "file.json" or "file.json: materials[3]".
+    std::string source;
+    /// Non-fatal findings, each "SOURCE: PATH: text" (also logged with log::warn).
+    std::vector<std::string> warnings;
+
+    /// Sum of the pigments' volume fractions (0 for an analytic medium).
+    double pigment_volume_fraction() const;
+};
+
+/// Parses one material or a catalogue {"materials": [...], "defaults": {...}} (defaults merged into
+/// each material, the material's own keys win). Validates everything first and throws ONE
+/// InputError whose message lists every problem, one per line, each "SOURCE: JSON.PATH: fault (got
+/// VALUE)", e.g. "spec.json: materials[1].pigments[0].size.r_eff_um: must be > 0 (got -0.2)".
+/// `source` names the document in messages (usually the file name).
+std::vector<MaterialSpec> parse_specs(const nlohmann::json& document, std::string_view source);
+
+/// Parses JSON text (InputError "SOURCE:LINE:COLUMN: invalid JSON: ..." on syntax errors, which
+/// include NaN and Infinity; duplicate keys in an object are reported with the other problems) and
+/// then parse_specs.
+std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_view source);
+
+/// Reads a file (IoError if unreadable, LimitError above max_spec_file_bytes) and parses it with
+/// parse_specs_text, the file's path as given naming it in messages.
+std::vector<MaterialSpec> load_specs(const std::filesystem::path& file);
+
+/// FNV-1a 64 of `text` as 16 lowercase hex digits.
+std::string fnv1a64_hex(std::string_view text);
+
+} // namespace brdf::material
