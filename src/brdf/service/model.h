@@ -1,0 +1,62 @@
+#pragma once
+// A material solved: per wavelength (or per RGB channel of an analytic medium) the optics and the
+// reflection function, with the colour weights that turn spectra into linear Rec.709 RGB. Evaluation
+// at exact angles (brdftool eval / albedo on a spec) and the table fill both start here.
+
+#include <brdf/material/spec.h>
+#include <brdf/rte/reflection.h>
+#include <brdf/service/optics.h>
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace brdf::service {
+
+using Rgb = std::array<double, 3>;
+
+enum class Device { OpenCL, Cpu };
+
+/// Numerical settings chosen for a requested relative BRDF error (the spec's accuracy).
+struct Settings {
+    double tolerance = 1e-4;
+    int streams = 32;
+    double order_tolerance = 1e-5;
+    double solver_tolerance = 1e-10;
+    double mie_tolerance = 1e-5;
+    int table_grid = 91; ///< zenith angles of the table's Fourier grid, 0..90 degrees
+    rte::Method method = rte::Method::Fast;
+};
+Settings settings_for(double tolerance);
+
+struct Sample {
+    double wavelength_nm = 0.0; ///< 0 for a channel of an analytic medium
+    Rgb weight{};               ///< contribution to r, g, b
+    SpectralOptics optics;
+    rte::Reflection reflection;
+};
+
+struct StageSeconds {
+    double optics = 0.0, solve = 0.0, table = 0.0, write = 0.0;
+};
+
+struct SolvedMaterial {
+    material::MaterialSpec spec;
+    Settings settings;
+    std::vector<Sample> samples;
+    std::string device; ///< "opencl: DEVICE NAME" or "cpu"
+    StageSeconds seconds;
+
+    /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, DESIGN.md conventions).
+    Rgb brdf(double theta_i, double theta_o, double phi) const;
+    /// Directional-hemispherical reflectance of the diffuse part.
+    Rgb albedo(double theta_i) const;
+    /// The interface's mirror reflectance (0 with surface "none").
+    Rgb mirror(double theta_i) const;
+};
+
+/// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
+/// device (or the CPU reference).
+SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device);
+
+} // namespace brdf::service

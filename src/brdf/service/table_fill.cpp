@@ -1,0 +1,154 @@
+#include <brdf/service/table_fill.h>
+
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+#include <brdf/rte/phase.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <thread>
+
+namespace brdf::service {
+namespace {
+
+constexpr int phase_table_points = 8192;
+
+// Catmull-Rom weights for fractional position f in [0, 1) between taps 0 and 1 of (-1, 0, 1, 2).
+void catmull_rom(double f, double w[4]) {
+    const double f2 = f * f, f3 = f2 * f;
+    w[0] = 0.5 * (-f3 + 2.0 * f2 - f);
+    w[1] = 0.5 * (3.0 * f3 - 5.0 * f2 + 2.0);
+    w[2] = 0.5 * (-3.0 * f3 + 4.0 * f2 + f);
+    w[3] = 0.5 * (f3 - f2);
+}
+
+// Taps and weights along one zenith axis of the grid.
+struct Stencil {
+    int idx[4];
+    double w[4];
+};
+
+Stencil stencil(double theta, int grid) {
+    const double t = std::clamp(theta / (0.5 * std::numbers::pi), 0.0, 1.0) * (grid - 1);
+    const int i0 = std::min(static_cast<int>(t), grid - 2);
+    Stencil s;
+    catmull_rom(t - i0, s.w);
+    for (int k = 0; k < 4; ++k) s.idx[k] = std::clamp(i0 - 1 + k, 0, grid - 1);
+    return s;
+}
+
+double transmitted(double mu_air, double n) { // 1 - Fresnel reflectance from air
+    if (n == 1.0) return 1.0;
+    return 1.0 - rte::Interface{n}.reflectance_from_air(mu_air);
+}
+
+} // namespace
+
+FillInputs prepare_fill(const SolvedMaterial& material) {
+    FillInputs in;
+    const int e = material.settings.table_grid;
+    in.grid = e;
+    std::vector<double> mu(static_cast<std::size_t>(e));
+    for (int a = 0; a < e; ++a) mu[a] = std::cos(0.5 * std::numbers::pi * a / (e - 1));
+    for (const Sample& s : material.samples) in.orders = std::max(in.orders, s.reflection.setup().orders);
+    in.fourier.assign(static_cast<std::size_t>(in.orders) * 3 * e * e, 0.0);
+    in.samples = static_cast<int>(material.samples.size());
+    in.phase_points = phase_table_points;
+    in.phase.resize(static_cast<std::size_t>(in.samples) * in.phase_points);
+    for (int k = 0; k < in.samples; ++k) {
+        const Sample& s = material.samples[k];
+        const rte::Reflection& r = s.reflection;
+        const rte::OrderGrid g = r.order_grid(mu);
+        for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
+            const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0);
+            for (int c = 0; c < 3; ++c) {
+                if (s.weight[c] == 0.0) continue;
+                double* dst = &in.fourier[((static_cast<std::size_t>(m) * 3 + c) * e) * e];
+                for (int o = 0; o < e; ++o)
+                    for (int i = 0; i < e; ++i)
+                        dst[o * e + i] += s.weight[c] * factor * r.transmission_factor(mu[o], mu[i]) * g.orders[m](o, i);
+            }
+        }
+        const auto& medium = r.setup().medium;
+        for (int p = 0; p < in.phase_points; ++p) {
+            const double x = static_cast<double>(p) / (in.phase_points - 1); // sin(Theta / 2)
+            in.phase[static_cast<std::size_t>(k) * in.phase_points + p] =
+                0.25 * medium.omega * rte::phase_value(medium.beta, 1.0 - 2.0 * x * x);
+        }
+        in.index.push_back(r.setup().interface.n);
+        for (int c = 0; c < 3; ++c) in.weight.push_back(s.weight[c]);
+    }
+    return in;
+}
+
+Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi) {
+    Rgb out{0.0, 0.0, 0.0};
+    const double mu_i = std::cos(theta_i), mu_o = std::cos(theta_o);
+    if (mu_i <= 0.0 || mu_o <= 0.0) return out;
+    const int e = in.grid;
+    // Multiply scattered part: interpolate each order, then sum cos(m phi) by the Chebyshev recurrence.
+    const Stencil so = stencil(theta_o, e), si = stencil(theta_i, e);
+    const double c1 = std::cos(phi);
+    double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
+    for (int m = 0; m < in.orders; ++m) {
+        for (int c = 0; c < 3; ++c) {
+            const double* f = &in.fourier[((static_cast<std::size_t>(m) * 3 + c) * e) * e];
+            double v = 0.0;
+            for (int a = 0; a < 4; ++a) {
+                const double* row = f + static_cast<std::size_t>(so.idx[a]) * e;
+                v += so.w[a] * (si.w[0] * row[si.idx[0]] + si.w[1] * row[si.idx[1]] + si.w[2] * row[si.idx[2]] +
+                                si.w[3] * row[si.idx[3]]);
+            }
+            out[c] += v * cm;
+        }
+        const double next = 2.0 * c1 * cm - cm_prev;
+        cm_prev = cm;
+        cm = next;
+    }
+    // Single scattering with the full phase function, per sample (its own refraction).
+    const int kp = in.phase_points;
+    for (int s = 0; s < in.samples; ++s) {
+        const double n = in.index[s];
+        const double ui = n == 1.0 ? mu_i : std::sqrt(1.0 - (1.0 - mu_i * mu_i) / (n * n));
+        const double uo = n == 1.0 ? mu_o : std::sqrt(1.0 - (1.0 - mu_o * mu_o) / (n * n));
+        const double si2 = std::sqrt(std::max(0.0, 1.0 - ui * ui)), so2 = std::sqrt(std::max(0.0, 1.0 - uo * uo));
+        const double cos_scatter = std::clamp(-uo * ui - so2 * si2 * c1, -1.0, 1.0);
+        const double x = std::sqrt(0.5 * (1.0 - cos_scatter)) * (kp - 1);
+        const int k0 = std::min(static_cast<int>(x), kp - 2);
+        const double t = x - k0;
+        const double* p = &in.phase[static_cast<std::size_t>(s) * kp];
+        const double phase = (1.0 - t) * p[k0] + t * p[k0 + 1];
+        const double factor = n == 1.0 ? 1.0 : transmitted(mu_o, n) * transmitted(mu_i, n) / (n * n);
+        const double v = factor * std::numbers::inv_pi * phase / (uo + ui);
+        for (int c = 0; c < 3; ++c) out[c] += in.weight[s * 3 + c] * v;
+    }
+    for (double& v : out) v = std::max(0.0, v);
+    return out;
+}
+
+formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
+    formats::BrdfTable table;
+    const std::size_t cells = table.channels[0].size();
+    const int nt = std::max(1, threads);
+    std::vector<std::thread> pool;
+    for (int t = 0; t < nt; ++t) {
+        pool.emplace_back([&, t] {
+            for (std::size_t cell = t; cell < cells; cell += nt) {
+                if (formats::cell_below_horizon(cell)) continue;
+                const formats::CellIndices ix = formats::cell_indices(cell);
+                const formats::DirectionPair d =
+                    formats::to_directions(formats::theta_h_centre(ix.theta_h), formats::theta_d_centre(ix.theta_d),
+                                           formats::phi_d_centre(ix.phi_d));
+                const double theta_i = std::acos(std::clamp(d.wi.z, -1.0, 1.0));
+                const double theta_o = std::acos(std::clamp(d.wo.z, -1.0, 1.0));
+                const double phi = std::atan2(d.wo.y, d.wo.x) - std::atan2(d.wi.y, d.wi.x);
+                table.set(cell, fill_value(in, theta_i, theta_o, phi));
+            }
+        });
+    }
+    for (auto& th : pool) th.join();
+    return table;
+}
+
+} // namespace brdf::service

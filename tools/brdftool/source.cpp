@@ -1,0 +1,56 @@
+#include "source.h"
+
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+#include <brdf/material/spec.h>
+#include <formats/table_io.h>
+
+#include <algorithm>
+
+namespace brdf::tool {
+
+void DeviceFlag::add_to(CLI::App& app) {
+    app.add_option("--device", value, "opencl (default: PoCL or a GPU) or cpu (the C++ reference)")
+        ->check(CLI::IsMember({"opencl", "cpu"}));
+}
+
+service::Device DeviceFlag::device() const { return value == "cpu" ? service::Device::Cpu : service::Device::OpenCL; }
+
+bool is_spec_file(const std::filesystem::path& path) {
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    return ext == ".json";
+}
+
+Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device) {
+    Source s;
+    if (!is_spec_file(path)) {
+        if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
+        s.table = formats::read_table(path);
+        return s;
+    }
+    std::vector<material::MaterialSpec> specs = material::load_specs(path);
+    const material::MaterialSpec* chosen = nullptr;
+    if (material.empty()) {
+        if (specs.size() != 1) {
+            std::string names;
+            for (const auto& m : specs) names += cat(names.empty() ? "" : ", ", m.name);
+            throw InputError(cat(path.string(), ": holds ", specs.size(), " materials (", names,
+                                 "); choose one with --material NAME"));
+        }
+        chosen = &specs.front();
+    } else {
+        for (const auto& m : specs)
+            if (m.name == material) chosen = &m;
+        if (!chosen) throw InputError(cat(path.string(), ": no material named '", material, "'"));
+    }
+    s.model = service::solve_material(*chosen, device);
+    return s;
+}
+
+service::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {
+    if (model) return model->brdf(theta_i, theta_o, phi);
+    return formats::lookup(*table, theta_i, theta_o, phi);
+}
+
+} // namespace brdf::tool
