@@ -126,3 +126,32 @@ TEST(Pipeline, InvalidSpecComputesNothing) {
 
 } // namespace
 } // namespace brdf::test
+
+namespace brdf::test {
+namespace {
+
+// Interpolating the BRDF in wavelength between the solved ones stays within the requested
+// tolerance of solving every wavelength, for the example catalogue's particulate materials.
+TEST(PipelineSpectral, SelectedWavelengthsMeetTheTolerance) {
+    const auto specs = material::load_specs(source_dir() / "examples/catalogue.json");
+    for (const auto& spec : specs) {
+        if (spec.medium) continue;
+        service::Settings all = service::settings_for(spec.accuracy.tolerance);
+        all.select_wavelengths = false;
+        const auto full = service::solve_material(spec, service::Device::Cpu, all);
+        const auto fast = service::solve_material(spec, service::Device::Cpu);
+        double worst = 0.0;
+        for (double ti : {0.1, 0.6, 1.2})
+            for (double to : {0.2, 0.9, 1.4})
+                for (double phi : {0.0, 2.0, 3.1}) {
+                    const auto a = fast.brdf(ti, to, phi), b = full.brdf(ti, to, phi);
+                    for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(a[c] - b[c]) / b[c]);
+                }
+        std::printf("%-22s solved %2zu of %2zu wavelengths, worst relative difference %.2e\n", spec.name.c_str(),
+                    fast.samples.size(), full.samples.size(), worst);
+        EXPECT_LE(worst, spec.accuracy.tolerance) << spec.name;
+    }
+}
+
+} // namespace
+} // namespace brdf::test

@@ -14,5 +14,11 @@ struct Subcommand {
 };
 
 Subcommand add_mie_command(CLI::App& root);
+Subcommand add_compute_command(CLI::App& root);
+Subcommand add_eval_command(CLI::App& root);
+Subcommand add_albedo_command(CLI::App& root);
+Subcommand add_convert_command(CLI::App& root);
+Subcommand add_info_command(CLI::App& root);
+Subcommand add_diff_command(CLI::App& root);
 
 } // namespace brdf::tool

@@ -39,7 +39,13 @@ int main(int argc, char** argv) {
         ->envname("BRDF_LOG");
 
     std::vector<tool::Subcommand> commands;
+    commands.push_back(tool::add_compute_command(app));
+    commands.push_back(tool::add_eval_command(app));
+    commands.push_back(tool::add_albedo_command(app));
     commands.push_back(tool::add_mie_command(app));
+    commands.push_back(tool::add_convert_command(app));
+    commands.push_back(tool::add_info_command(app));
+    commands.push_back(tool::add_diff_command(app));
 
     // `brdftool help [CMD]` prints the same usage as `brdftool CMD --help`.
     std::string help_topic;

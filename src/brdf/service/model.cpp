@@ -3,12 +3,10 @@
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
-#if __has_include(<brdf/rte/cl_solver.h>) // TEMPORARY until the kernel lands
 #include <brdf/rte/cl_solver.h>
-#define BRDF_HAVE_CL_SOLVER 1
-#endif
 
 #include <chrono>
+#include <numbers>
 #include <cmath>
 #include <thread>
 
@@ -32,12 +30,107 @@ Rgb weighted(const std::vector<Sample>& samples, auto&& value) {
 
 } // namespace
 
+SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, const std::vector<Rgb>& weights,
+                                    double tolerance) {
+    const std::size_t n = optics.size();
+    SpectralSelection out;
+    if (n == 0) return out;
+    // What the BRDF is made of, per wavelength: the similarity parameter sqrt((1 - omega) /
+    // (1 - omega g)) sets the multiply scattered level (van de Hulst 1980), omega p(Theta) at a
+    // spread of scattering angles the single scattering, and the binder index the Fresnel factors.
+    // Each must be reproduced by the interpolation to within a third of the tolerance (relative for
+    // the phase function values); measured against solving every wavelength by the
+    // PipelineSpectral test.
+    constexpr int angles = 7;
+    const auto feature = [&](std::size_t k) {
+        const double om = optics[k].medium.omega, g = optics[k].g;
+        std::array<double, 2 + angles> f{std::sqrt(std::max(0.0, (1.0 - om) / (1.0 - om * g))), optics[k].binder_index};
+        for (int a = 0; a < angles; ++a)
+            f[2 + a] = om * rte::phase_value(optics[k].medium.beta, std::cos(std::numbers::pi * a / (angles - 1)));
+        return f;
+    };
+    const auto allowed = [&](const auto& fa, const auto& fb, int q) {
+        return q < 2 ? tolerance / 3.0 : tolerance / 3.0 * std::min(std::abs(fa[q]), std::abs(fb[q]));
+    };
+    const auto lambda = [&](std::size_t k) { return optics[k].wavelength_nm; };
+    // Quadratic Lagrange weights of nodes a, c, b at wavelength x.
+    const auto lagrange = [&](std::size_t a, std::size_t c, std::size_t b, double x) {
+        const double la = lambda(a), lc = lambda(c), lb = lambda(b);
+        return std::array<double, 3>{(x - lc) * (x - lb) / ((la - lc) * (la - lb)),
+                                     (x - la) * (x - lb) / ((lc - la) * (lc - lb)),
+                                     (x - la) * (x - lc) / ((lb - la) * (lb - lc))};
+    };
+    std::vector<char> keep(n, 0);
+    keep.front() = keep.back() = 1;
+    // Intervals [a, b] with a kept midpoint c: accepted when the quadratic through a, c, b
+    // reproduces every feature at every wavelength in between within `allowed`; else both halves
+    // are refined. Every wavelength is solved below tolerance 1e-6 ("reference") or for short lists.
+    struct Piece {
+        std::size_t a, c, b;
+    };
+    std::vector<Piece> accepted;
+    std::vector<std::pair<std::size_t, std::size_t>> stack;
+    if (n <= 3 || tolerance < 1e-6) std::fill(keep.begin(), keep.end(), 1);
+    else stack.push_back({0, n - 1});
+    while (!stack.empty()) {
+        const auto [a, b] = stack.back();
+        stack.pop_back();
+        if (b <= a + 1) continue;
+        const std::size_t c = (a + b) / 2;
+        keep[c] = 1;
+        bool good = true;
+        const auto fa = feature(a), fc = feature(c), fb = feature(b);
+        for (std::size_t j = a + 1; j < b && good; ++j) {
+            if (j == c) continue;
+            const auto l = lagrange(a, c, b, lambda(j));
+            const auto fj = feature(j);
+            for (std::size_t q = 0; q < fj.size(); ++q)
+                if (std::abs(fj[q] - (l[0] * fa[q] + l[1] * fc[q] + l[2] * fb[q])) > allowed(fa, fb, static_cast<int>(q)))
+                    good = false;
+        }
+        if (good) {
+            accepted.push_back({a, c, b});
+        } else {
+            stack.push_back({a, c});
+            stack.push_back({c, b});
+        }
+    }
+    std::vector<std::size_t> slot(n, 0);
+    for (std::size_t k = 0; k < n; ++k)
+        if (keep[k]) {
+            slot[k] = out.solved.size();
+            out.solved.push_back(k);
+        }
+    out.weights.assign(out.solved.size(), Rgb{0.0, 0.0, 0.0});
+    for (std::size_t k = 0; k < n; ++k)
+        if (keep[k])
+            for (int c = 0; c < 3; ++c) out.weights[slot[k]][c] += weights[k][c];
+    // Each skipped wavelength's colour weight goes to the three solved wavelengths of its piece, as
+    // quadratic interpolation of the BRDF in wavelength would put it.
+    for (const Piece& p : accepted)
+        for (std::size_t j = p.a + 1; j < p.b; ++j) {
+            if (keep[j]) continue;
+            const auto l = lagrange(p.a, p.c, p.b, lambda(j));
+            const std::size_t node[3] = {p.a, p.c, p.b};
+            for (int q = 0; q < 3; ++q)
+                for (int c = 0; c < 3; ++c) out.weights[slot[node[q]]][c] += l[q] * weights[j][c];
+        }
+    return out;
+}
+
 Settings settings_for(double tolerance) {
-    // Streams from the measured isotropic error of Gauss-in-mu Nystrom evaluation
-    // (docs/quadrature-study.md): 1e-3 at 8, 3e-4 at 16, 2e-5 at 32, 1.6e-6 at 48, 1e-7 at 64.
+    // Streams from the measured worst isotropic error of Gauss-in-mu Nystrom evaluation, angles 0 to
+    // 89.9 degrees (docs/quadrature-study.md): 2.0e-3 at 8, 5.7e-4 at 16, 1.6e-4 at 24, 4.3e-5 at 32,
+    // 3.1e-6 at 48, 2.2e-7 at 64.
     Settings s;
     s.tolerance = tolerance;
-    s.streams = tolerance >= 3e-3 ? 8 : tolerance >= 3e-4 ? 16 : tolerance >= 3e-5 ? 32 : tolerance >= 2e-6 ? 48 : 64;
+    s.streams = tolerance >= 3e-3   ? 8
+                : tolerance >= 6e-4 ? 16
+                : tolerance >= 2e-4 ? 24
+                : tolerance >= 5e-5 ? 32
+                : tolerance >= 5e-6 ? 48
+                : tolerance >= 3e-7 ? 64
+                                    : 96;
     s.order_tolerance = 0.1 * tolerance;
     s.solver_tolerance = std::clamp(1e-4 * tolerance, 1e-13, 1e-8);
     s.mie_tolerance = std::clamp(0.1 * tolerance, 1e-7, 1e-3);
@@ -46,9 +139,13 @@ Settings settings_for(double tolerance) {
 }
 
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device) {
+    return solve_material(spec, device, settings_for(spec.accuracy.tolerance));
+}
+
+SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const Settings& settings) {
     SolvedMaterial out;
     out.spec = spec;
-    out.settings = settings_for(spec.accuracy.tolerance);
+    out.settings = settings;
     const Settings& st = out.settings;
     rte::ReflectionSettings rs;
     rs.streams = st.streams;
@@ -92,9 +189,16 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device)
         for (auto& th : pool) th.join();
         for (auto& e : errors)
             if (e) std::rethrow_exception(e);
-        for (std::size_t k = 0; k < wavelengths.size(); ++k) weights.push_back(rgb[k]);
         if (spec.surface == material::Surface::None)
             for (auto& o : optics) o.binder_index = 1.0;
+        std::vector<Rgb> all(rgb.begin(), rgb.end());
+        const SpectralSelection pick =
+            select_wavelengths(optics, all, st.select_wavelengths ? st.tolerance : 0.0);
+        std::vector<SpectralOptics> kept;
+        for (std::size_t k : pick.solved) kept.push_back(std::move(optics[k]));
+        optics = std::move(kept);
+        weights = pick.weights;
+        out.wavelengths_interpolated = all.size() - pick.solved.size();
     }
     out.seconds.optics = seconds_since(t0);
 
@@ -110,11 +214,7 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device)
     if (device == Device::OpenCL) {
         auto ctx = cl::Context::shared(); // throws DeviceError naming the fault
         out.device = "opencl: " + ctx->info().name;
-#ifdef BRDF_HAVE_CL_SOLVER
         solutions = rte::solve_orders_opencl(problems, rs.method, rs.control);
-#else
-        solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, hardware_threads());
-#endif
     } else {
         out.device = "cpu";
         solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, hardware_threads());

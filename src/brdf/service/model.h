@@ -26,6 +26,7 @@ struct Settings {
     double mie_tolerance = 1e-5;
     int table_grid = 91; ///< zenith angles of the table's Fourier grid, 0..90 degrees
     rte::Method method = rte::Method::Fast;
+    bool select_wavelengths = true; ///< solve only the wavelengths select_wavelengths() keeps
 };
 Settings settings_for(double tolerance);
 
@@ -45,6 +46,7 @@ struct SolvedMaterial {
     Settings settings;
     std::vector<Sample> samples;
     std::string device; ///< "opencl: DEVICE NAME" or "cpu"
+    std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
     StageSeconds seconds;
 
     /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, DESIGN.md conventions).
@@ -55,8 +57,19 @@ struct SolvedMaterial {
     Rgb mirror(double theta_i) const;
 };
 
+/// Which wavelengths of a spectrum to solve: where the optics vary smoothly the BRDF is
+/// interpolated (piecewise quadratic in wavelength) between solved ones, which folds each skipped wavelength's
+/// colour weight onto its neighbours. All are solved for tolerance < 1e-6 ("reference").
+struct SpectralSelection {
+    std::vector<std::size_t> solved; ///< indices into the spectrum, ascending, first and last included
+    std::vector<Rgb> weights;        ///< colour weight of each solved wavelength
+};
+SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, const std::vector<Rgb>& weights,
+                                     double tolerance);
+
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device);
+SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const Settings& settings);
 
 } // namespace brdf::service

@@ -71,6 +71,7 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
           {"note", "streams chosen from the measured Nystrom error against exact solutions "
                    "(docs/quadrature-study.md); tables add their binning error"}}},
         {"wavelengths", samples},
+        {"wavelengths_interpolated", m.wavelengths_interpolated},
         {"directional_albedo", albedo},
         {"seconds", {{"optics", m.seconds.optics}, {"solve", m.seconds.solve}, {"table", m.seconds.table},
                      {"write", m.seconds.write}}},

@@ -13,6 +13,8 @@ namespace brdf::service {
 namespace {
 
 constexpr int phase_table_points = 8192;
+// T(mu) / n^2 / pi is smooth (linear near grazing): 2049 points interpolate it to ~1e-7.
+constexpr int fresnel_table_points = 2049;
 
 // Catmull-Rom weights for fractional position f in [0, 1) between taps 0 and 1 of (-1, 0, 1, 2).
 void catmull_rom(double f, double w[4]) {
@@ -38,9 +40,11 @@ Stencil stencil(double theta, int grid) {
     return s;
 }
 
-double transmitted(double mu_air, double n) { // 1 - Fresnel reflectance from air
-    if (n == 1.0) return 1.0;
-    return 1.0 - rte::Interface{n}.reflectance_from_air(mu_air);
+double lerp_table(const double* table, int points, double x) { // x in [0, 1]
+    const double t = std::clamp(x, 0.0, 1.0) * (points - 1);
+    const int k = std::min(static_cast<int>(t), points - 2);
+    const double f = t - k;
+    return (1.0 - f) * table[k] + f * table[k + 1];
 }
 
 } // namespace
@@ -55,11 +59,33 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
     in.fourier.assign(static_cast<std::size_t>(in.orders) * 3 * e * e, 0.0);
     in.samples = static_cast<int>(material.samples.size());
     in.phase_points = phase_table_points;
+    in.fresnel_points = fresnel_table_points;
     in.phase.resize(static_cast<std::size_t>(in.samples) * in.phase_points);
+    // The Nystrom grids are the expensive part and independent per sample: one thread per core.
+    std::vector<rte::OrderGrid> grids(material.samples.size());
+    {
+        const int threads = std::max(1, std::min<int>(static_cast<int>(std::thread::hardware_concurrency()), in.samples));
+        std::vector<std::thread> pool;
+        std::vector<std::exception_ptr> errors(static_cast<std::size_t>(threads));
+        for (int t = 0; t < threads; ++t)
+            pool.emplace_back([&, t] {
+                try {
+                    for (std::size_t k = t; k < grids.size(); k += threads) grids[k] = material.samples[k].reflection.order_grid(mu);
+                } catch (...) {
+                    errors[t] = std::current_exception();
+                }
+            });
+        for (auto& th : pool) th.join();
+        for (auto& error : errors)
+            if (error) std::rethrow_exception(error);
+    }
+    std::vector<double> factor_oi(static_cast<std::size_t>(e) * e);
     for (int k = 0; k < in.samples; ++k) {
         const Sample& s = material.samples[k];
         const rte::Reflection& r = s.reflection;
-        const rte::OrderGrid g = r.order_grid(mu);
+        const rte::OrderGrid& g = grids[k];
+        for (int o = 0; o < e; ++o)
+            for (int i = 0; i < e; ++i) factor_oi[o * e + i] = r.transmission_factor(mu[o], mu[i]);
         for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
             const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0);
             for (int c = 0; c < 3; ++c) {
@@ -67,7 +93,7 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
                 double* dst = &in.fourier[((static_cast<std::size_t>(m) * 3 + c) * e) * e];
                 for (int o = 0; o < e; ++o)
                     for (int i = 0; i < e; ++i)
-                        dst[o * e + i] += s.weight[c] * factor * r.transmission_factor(mu[o], mu[i]) * g.orders[m](o, i);
+                        dst[o * e + i] += s.weight[c] * factor * factor_oi[o * e + i] * g.orders[m](o, i);
             }
         }
         const auto& medium = r.setup().medium;
@@ -77,6 +103,8 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
                 0.25 * medium.omega * rte::phase_value(medium.beta, 1.0 - 2.0 * x * x);
         }
         in.index.push_back(r.setup().interface.n);
+        for (int p = 0; p < fresnel_table_points; ++p)
+            in.transmission.push_back(r.transmission_factor(1.0, static_cast<double>(p) / (fresnel_table_points - 1)));
         for (int c = 0; c < 3; ++c) in.weight.push_back(s.weight[c]);
     }
     return in;
@@ -106,21 +134,19 @@ Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi)
         cm_prev = cm;
         cm = next;
     }
-    // Single scattering with the full phase function, per sample (its own refraction).
-    const int kp = in.phase_points;
+    // Single scattering with the full phase function, per sample (its own refraction). Snell:
+    // sin(theta inside) = sin(theta in air) / n, so only the cosines inside need a square root.
+    const double sin_i = std::sqrt(std::max(0.0, 1.0 - mu_i * mu_i)), sin_o = std::sqrt(std::max(0.0, 1.0 - mu_o * mu_o));
+    const int kp = in.phase_points, kf = in.fresnel_points;
     for (int s = 0; s < in.samples; ++s) {
-        const double n = in.index[s];
-        const double ui = n == 1.0 ? mu_i : std::sqrt(1.0 - (1.0 - mu_i * mu_i) / (n * n));
-        const double uo = n == 1.0 ? mu_o : std::sqrt(1.0 - (1.0 - mu_o * mu_o) / (n * n));
-        const double si2 = std::sqrt(std::max(0.0, 1.0 - ui * ui)), so2 = std::sqrt(std::max(0.0, 1.0 - uo * uo));
-        const double cos_scatter = std::clamp(-uo * ui - so2 * si2 * c1, -1.0, 1.0);
-        const double x = std::sqrt(0.5 * (1.0 - cos_scatter)) * (kp - 1);
-        const int k0 = std::min(static_cast<int>(x), kp - 2);
-        const double t = x - k0;
-        const double* p = &in.phase[static_cast<std::size_t>(s) * kp];
-        const double phase = (1.0 - t) * p[k0] + t * p[k0 + 1];
-        const double factor = n == 1.0 ? 1.0 : transmitted(mu_o, n) * transmitted(mu_i, n) / (n * n);
-        const double v = factor * std::numbers::inv_pi * phase / (uo + ui);
+        const double n = in.index[s], inv_n2 = 1.0 / (n * n);
+        const double ui = std::sqrt(1.0 - sin_i * sin_i * inv_n2), uo = std::sqrt(1.0 - sin_o * sin_o * inv_n2);
+        const double cos_scatter = std::clamp(-uo * ui - sin_o * sin_i * inv_n2 * c1, -1.0, 1.0);
+        const double phase = lerp_table(&in.phase[static_cast<std::size_t>(s) * kp], kp, std::sqrt(0.5 * (1.0 - cos_scatter)));
+        // tab(mu) = T(1) T(mu) / (n^2 pi), so T(mu_o) T(mu_i) / (n^2 pi) = tab(mu_o) tab(mu_i) / tab(1).
+        const double* t = &in.transmission[static_cast<std::size_t>(s) * kf];
+        const double factor = lerp_table(t, kf, mu_o) * lerp_table(t, kf, mu_i) / t[kf - 1];
+        const double v = factor * phase / (uo + ui);
         for (int c = 0; c < 3; ++c) out[c] += in.weight[s * 3 + c] * v;
     }
     for (double& v : out) v = std::max(0.0, v);

@@ -26,6 +26,10 @@ struct FillInputs {
     int phase_points = 0; ///< K: phase[s * K + k] = (w_s / 4) p_s at sin(Theta/2) = k / (K - 1)
     std::vector<double> phase;
     std::vector<double> index;  ///< [s]: binder index (1: no interface)
+    /// F: transmission[s * F + k] = T_s(1) T_s(mu_k) / (n_s^2 pi), mu_k = k / (F - 1): the interface
+    /// factor of Reflection::transmission_factor as a table (1/pi without an interface).
+    int fresnel_points = 0;
+    std::vector<double> transmission;
     std::vector<double> weight; ///< [s * 3 + c]
 };
 

@@ -1,0 +1,53 @@
+// End-to-end stages of the seed material (rutile in acrylic, visible spectrum, default accuracy):
+// optics (Mie per wavelength), the batched solve, the table fill, and writing both tables.
+// Run: build/bin/bench_pipeline [--benchmark_filter=...]
+
+#include <brdf/material/spec.h>
+#include <brdf/service/model.h>
+#include <brdf/service/table_fill.h>
+
+#include <benchmark/benchmark.h>
+
+#include <thread>
+
+namespace {
+
+using namespace brdf;
+
+const char* seed_spec = R"({"name": "seed-tio2-white", "binder": {"material": "pmma"},
+  "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.10,
+                "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}]})";
+
+material::MaterialSpec seed() { return material::parse_specs_text(seed_spec, "seed").at(0); }
+
+void BM_SolveSeed(benchmark::State& state) {
+    const auto spec = seed();
+    const auto device = state.range(0) ? service::Device::OpenCL : service::Device::Cpu;
+    for (auto _ : state) {
+        const service::SolvedMaterial m = service::solve_material(spec, device);
+        state.counters["optics_s"] = m.seconds.optics;
+        state.counters["solve_s"] = m.seconds.solve;
+        state.counters["wavelengths"] = static_cast<double>(m.samples.size());
+    }
+}
+BENCHMARK(BM_SolveSeed)->Arg(0)->Arg(1)->ArgName("opencl")->Unit(benchmark::kMillisecond)->Iterations(2);
+
+void BM_FillSeed(benchmark::State& state) {
+    const service::SolvedMaterial m = service::solve_material(seed(), service::Device::Cpu);
+    const service::FillInputs in = service::prepare_fill(m);
+    const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    for (auto _ : state) benchmark::DoNotOptimize(service::fill_table_cpu(in, threads));
+    state.counters["orders"] = in.orders;
+    state.counters["samples"] = in.samples;
+}
+BENCHMARK(BM_FillSeed)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+void BM_PrepareFillSeed(benchmark::State& state) {
+    const service::SolvedMaterial m = service::solve_material(seed(), service::Device::Cpu);
+    for (auto _ : state) benchmark::DoNotOptimize(service::prepare_fill(m));
+}
+BENCHMARK(BM_PrepareFillSeed)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+} // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,69 @@
+// Per-order solver benchmarks (run by hand: build-*/bench/bench_solver; set POCL_CACHE_DIR for PoCL).
+//
+//   BM_Medium/method/backend/omega   all Fourier orders of one medium: Henyey-Greenstein g = 0.5,
+//                                    32 streams, setup_reflection with default ReflectionSettings
+//                                    otherwise (delta-M, order tolerance 1e-5), no interface.
+//                                    method 0 fixed point, 1 doubling, 2 fast (as rte::Method);
+//                                    backend 0 the C++ reference (one thread), 1 OpenCL (one launch
+//                                    for all orders); omega index 0, 1, 2 = 0.9, 0.99999, 1.
+//                                    Counters: orders, total iterations over the orders.
+// The fixed point at omega -> 1 runs to SolveControl's default cap (100000 sweeps) at m = 0: it is the
+// baseline the doubling replaces, and slow on purpose.
+
+#include <brdf/cl/context.h>
+#include <brdf/rte/cl_solver.h>
+#include <brdf/rte/reflection.h>
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace brdf::rte;
+
+constexpr double omegas[] = {0.9, 0.99999, 1.0};
+
+std::vector<OrderProblem> medium_problems(double omega) {
+    std::vector<double> beta(200);
+    for (int l = 0; l < 200; ++l) beta[static_cast<std::size_t>(l)] = (2.0 * l + 1.0) * std::pow(0.5, l);
+    ReflectionSettings settings;
+    settings.streams = 32;
+    return order_problems(setup_reflection(Medium{omega, beta}, Interface{1.0}, settings));
+}
+
+void BM_Medium(benchmark::State& state) {
+    const auto method = static_cast<Method>(state.range(0));
+    const bool opencl = state.range(1) != 0;
+    const double omega = omegas[state.range(2)];
+    state.SetLabel(std::string(to_string(method)) + (opencl ? " opencl" : " cpu") + " omega " +
+                   std::to_string(omega));
+    if (opencl && !brdf::cl::available()) {
+        state.SkipWithError("no OpenCL device with fp64");
+        return;
+    }
+    const std::vector<OrderProblem> problems = medium_problems(omega);
+    const SolveControl control;
+    if (opencl) solve_orders_opencl(problems, method, control); // build the program outside the timing
+    long iterations = 0;
+    for (auto _ : state) {
+        const std::vector<OrderSolution> s =
+            opencl ? solve_orders_opencl(problems, method, control) : solve_orders_cpu(problems, method, control);
+        iterations = 0;
+        for (const OrderSolution& o : s) iterations += o.iterations;
+        benchmark::DoNotOptimize(s.data());
+    }
+    state.counters["orders"] = static_cast<double>(problems.size());
+    state.counters["iterations"] = static_cast<double>(iterations);
+}
+BENCHMARK(BM_Medium)
+    ->ArgsProduct({{0, 1, 2}, {0, 1}, {0, 1, 2}})
+    ->ArgNames({"method", "opencl", "omega"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+} // namespace
+
+BENCHMARK_MAIN();

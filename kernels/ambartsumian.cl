@@ -1,0 +1,500 @@
+// Batched per-Fourier-order solvers of Ambartsumian's equation (PHYSICS.md section 3): one work-group
+// per order problem, the same algorithms and the same arithmetic order as the C++ references in
+// src/brdf/rte/order_solver.cpp (fixed point, structure-preserving doubling with the conservative
+// rank-one shift, and the fast switch between them) and src/brdf/core/linalg.cpp (LU with partial
+// pivoting). Every matrix element is summed over k in increasing order, as the reference does, so the
+// two agree to a few ulp per operation.
+//
+// Structure: the kernel is a small interpreter with a single barrier. Each pass of its main loop first
+// runs the (private, identical on every work-item) control logic, which picks the next operation
+// (a matrix product, one LU column step, a triangular solve, an elementwise pass...), then all
+// work-items execute that operation on their share of elements, then everyone meets at the one
+// barrier. Decisions read only values written before the previous barrier (local partial
+// reductions), so they are uniform, every work-item reaches every barrier, and PoCL's work-group
+// compiler sees one barrier in one loop instead of hundreds (which took it minutes to compile).
+
+#pragma OPENCL FP_CONTRACT OFF
+
+#include "shared/ambartsumian_layout.h"
+
+#define DOUBLING_STEPS 100
+
+// Operations (what all work-items do between two barriers).
+#define OP_NONE 0
+#define OP_GEMM 1        // out = f(A B) by mode
+#define OP_COPY 2        // out (ld ldo) = a (n x n)
+#define OP_IDENTITY 3    // out = I
+#define OP_SETUP_FP 4    // fixed point's left, right, c, b; X = 0
+#define OP_SETUP_DB 5    // doubling's A_g, B, C, D_g (shifted when conservative)
+#define OP_EF 6          // E = I - 2g V^-1, F = I - 2g W^-1
+#define OP_SWEEP 7       // one fixed-point sweep into nx, with partial reductions
+#define OP_DIFF 8        // partial reductions of H1 - H
+#define OP_LU_PIVOT 9    // partial pivot search in column k
+#define OP_LU_SWAP 10    // swap rows k and p
+#define OP_LU_SCALE 11   // a_ik /= pivot
+#define OP_LU_UPDATE 12  // trailing update
+#define OP_SOLVE 13      // (LU) X = B, columns in parallel
+
+#define MODE_PLAIN 0     // out = A B
+#define MODE_ADD 1       // out = base + A B
+#define MODE_SCALE 2     // out = s (A B)
+#define MODE_EYE_MINUS 3 // out = I - A B
+#define MODE_SUB 4       // out = base - A B
+
+// Control states.
+#define S_START 0
+#define S_FP_SETUP 1
+#define S_FP_LOOP 2
+#define S_FP_SWEEP 3
+#define S_FP_DECIDE 4
+#define S_FP_DONE 5
+#define S_DB_SETUP 10   // then S_DB_SETUP + 1 .. S_DB_SETUP + 23: the set-up sequence
+#define S_DB_STEP 40    // then S_DB_STEP + 1 .. S_DB_STEP + 15: one doubling step
+#define S_DB_DECIDE 60
+#define S_LU_PIVOT 70
+#define S_LU_CHECK 71
+#define S_LU_SCALE 72
+#define S_LU_UPDATE 73
+#define S_OUTPUT 80
+#define S_FINISHED 81
+
+/// One work-group per task: tasks[get_group_id(0)] solved by its method; X to output, the outcome
+/// to status. Local size: a power of two <= AMB_MAX_WG.
+__kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const double* input,
+                                 __global double* output, __global double* workspace,
+                                 __global AmbStatus* status) {
+    __local int piv[AMB_MAX_N];
+    __local double part_a[AMB_MAX_WG]; // reductions: max change / pivot |value|
+    __local double part_b[AMB_MAX_WG]; // reductions: max scale / pivot signed value
+    __local int part_i[AMB_MAX_WG];    // reductions: non-finite flag / pivot row
+    const int group = (int)get_group_id(0);
+    const int lid = (int)get_local_id(0);
+    const int lsz = (int)get_local_size(0);
+    const AmbTask task = tasks[group];
+    const int n = task.n;
+    const int n2 = n * n;
+    const double om = task.omega;
+    __global const double* mu = input + task.input_offset;
+    __global const double* w = mu + n;
+    __global const double* pp = w + n;
+    __global const double* pm = pp + n2;
+    __global double* x_out = output + task.output_offset;
+    __global double* ws = workspace + task.workspace_offset;
+    const double g = task.gamma;
+    const double g2 = 2.0 * g;
+    const int conservative = task.m == 0 && om >= 1.0;
+
+    // Fixed point slots.
+    __global double* x = ws;
+    __global double* nx = ws + n2;
+    __global double* left = ws + 3 * n2;
+    __global double* right = ws + 4 * n2;
+    __global double* fc = ws + 5 * n2;
+    __global double* fb = ws + 6 * n2;
+    // Doubling slots (set-up matrices live in slots 4..11 until the first step).
+    __global double* e = ws;
+    __global double* f = ws + n2;
+    __global double* gm = ws + 2 * n2;
+    __global double* hm = ws + 3 * n2;
+    __global double* e1 = ws + 4 * n2;
+    __global double* f1 = ws + 5 * n2;
+    __global double* g1 = ws + 6 * n2;
+    __global double* h1 = ws + 7 * n2;
+    __global double* z = ws + 8 * n2;  // n x 2n
+    __global double* y = ws + 10 * n2; // n x 2n
+    __global double* lu = ws + 12 * n2;
+    __global double* t = ws + 13 * n2;
+    __global double* ag = ws + 4 * n2;
+    __global double* bb = ws + 5 * n2;
+    __global double* cc = ws + 6 * n2;
+    __global double* dg = ws + 7 * n2;
+    __global double* dinv = ws + 8 * n2;
+    __global double* ainv = ws + 9 * n2;
+    __global double* winv = ws + 10 * n2;
+    __global double* vinv = ws + 11 * n2;
+
+    double ev1 = 0.0; // conservation shift normaliser, e . v1
+    if (conservative)
+        for (int i = 0; i < n; ++i) ev1 += 2.0 * w[i] * mu[i];
+
+    // Outcome and control state (private, identical on every work-item).
+    double change = 0.0, scale = 0.0;
+    int iterations = 0, converged = 0, error = AMB_OK, detail = 0;
+    int state = S_START, it = 0, sweeps = 0, cap = 0;
+    int lu_k = 0, lu_ret = 0, lu_p = 0;
+    double pivot = 1.0;
+    __global double* lu_a = lu;
+    __global double* result = x;
+
+    while (state != S_FINISHED) {
+        // ---- control: choose the next operation ----
+        int op = OP_NONE, mode = MODE_PLAIN, ldo = n, lda = n, ldb = n, cols = n;
+        double s = 0.0;
+        __global double* out = 0;
+        __global const double* base = 0;
+        __global const double* a = 0;
+        __global const double* b = 0;
+        while (op == OP_NONE && state != S_FINISHED) {
+            switch (state) {
+            case S_START:
+                if (task.method == AMB_FIXED_POINT) {
+                    cap = task.max_iterations;
+                    state = S_FP_SETUP;
+                } else if (task.method == AMB_FAST && !(task.m == 0 && om > 0.9)) {
+                    cap = task.fast_sweeps;
+                    state = S_FP_SETUP;
+                } else {
+                    state = S_DB_SETUP;
+                }
+                break;
+            // -- fixed point (solve_fixed_point) --
+            case S_FP_SETUP:
+                op = OP_SETUP_FP;
+                it = 0;
+                state = S_FP_LOOP;
+                break;
+            case S_FP_LOOP:
+                ++it;
+                if (it > cap) {
+                    state = S_FP_DONE;
+                    break;
+                }
+                op = OP_GEMM, out = t, a = x, b = fc; // X C
+                state = S_FP_SWEEP;
+                break;
+            case S_FP_SWEEP:
+                op = OP_SWEEP;
+                state = S_FP_DECIDE;
+                break;
+            case S_FP_DECIDE: {
+                double c0 = 0.0, s0 = 0.0;
+                int bad = 0;
+                for (int q = 0; q < lsz; ++q) {
+                    c0 = fmax(c0, part_a[q]);
+                    s0 = fmax(s0, part_b[q]);
+                    bad |= part_i[q];
+                }
+                change = c0, scale = s0;
+                __global double* sw = x;
+                x = nx, nx = sw;
+                if (bad) {
+                    error = AMB_FIXED_POINT_DIVERGED;
+                    iterations = it;
+                    state = S_FINISHED;
+                } else if (change <= task.tolerance * scale) {
+                    converged = 1;
+                    state = S_FP_DONE;
+                } else {
+                    state = S_FP_LOOP;
+                }
+                break;
+            }
+            case S_FP_DONE:
+                iterations = min(it, cap);
+                if (task.method == AMB_FAST && !converged) {
+                    sweeps = iterations; // solve_fast: switch to doubling
+                    state = S_DB_SETUP;
+                } else {
+                    result = x;
+                    state = S_OUTPUT;
+                }
+                break;
+            // -- doubling (solve_doubling): Cayley-transformed start --
+            case S_DB_SETUP + 0: op = OP_SETUP_DB; state = S_DB_SETUP + 1; break;
+            case S_DB_SETUP + 1: op = OP_COPY, out = lu, a = dg; state = S_DB_SETUP + 2; break;
+            case S_DB_SETUP + 2: lu_ret = S_DB_SETUP + 3; lu_k = 0; state = S_LU_PIVOT; break;
+            case S_DB_SETUP + 3: op = OP_IDENTITY, out = dinv; state = S_DB_SETUP + 4; break;
+            case S_DB_SETUP + 4: op = OP_SOLVE, out = dinv; state = S_DB_SETUP + 5; break;
+            case S_DB_SETUP + 5: op = OP_COPY, out = lu, a = ag; state = S_DB_SETUP + 6; break;
+            case S_DB_SETUP + 6: lu_ret = S_DB_SETUP + 7; lu_k = 0; state = S_LU_PIVOT; break;
+            case S_DB_SETUP + 7: op = OP_IDENTITY, out = ainv; state = S_DB_SETUP + 8; break;
+            case S_DB_SETUP + 8: op = OP_SOLVE, out = ainv; state = S_DB_SETUP + 9; break;
+            case S_DB_SETUP + 9: op = OP_GEMM, out = t, a = bb, b = dinv; state = S_DB_SETUP + 10; break;
+            case S_DB_SETUP + 10: // A_g - B D_g^-1 C
+                op = OP_GEMM, mode = MODE_SUB, out = lu, base = ag, a = t, b = cc;
+                state = S_DB_SETUP + 11;
+                break;
+            case S_DB_SETUP + 11: lu_ret = S_DB_SETUP + 12; lu_k = 0; state = S_LU_PIVOT; break;
+            case S_DB_SETUP + 12: op = OP_IDENTITY, out = winv; state = S_DB_SETUP + 13; break;
+            case S_DB_SETUP + 13: op = OP_SOLVE, out = winv; state = S_DB_SETUP + 14; break;
+            case S_DB_SETUP + 14: op = OP_GEMM, out = t, a = cc, b = ainv; state = S_DB_SETUP + 15; break;
+            case S_DB_SETUP + 15: // D_g - C A_g^-1 B
+                op = OP_GEMM, mode = MODE_SUB, out = lu, base = dg, a = t, b = bb;
+                state = S_DB_SETUP + 16;
+                break;
+            case S_DB_SETUP + 16: lu_ret = S_DB_SETUP + 17; lu_k = 0; state = S_LU_PIVOT; break;
+            case S_DB_SETUP + 17: op = OP_IDENTITY, out = vinv; state = S_DB_SETUP + 18; break;
+            case S_DB_SETUP + 18: op = OP_SOLVE, out = vinv; state = S_DB_SETUP + 19; break;
+            case S_DB_SETUP + 19: op = OP_EF; state = S_DB_SETUP + 20; break;
+            case S_DB_SETUP + 20: op = OP_GEMM, out = t, a = dinv, b = cc; state = S_DB_SETUP + 21; break;
+            case S_DB_SETUP + 21: // G0 = 2g (D_g^-1 C W^-1)
+                op = OP_GEMM, mode = MODE_SCALE, s = g2, out = gm, a = t, b = winv;
+                state = S_DB_SETUP + 22;
+                break;
+            case S_DB_SETUP + 22: op = OP_GEMM, out = t, a = winv, b = bb; state = S_DB_SETUP + 23; break;
+            case S_DB_SETUP + 23: // H0 = 2g (W^-1 B D_g^-1)
+                op = OP_GEMM, mode = MODE_SCALE, s = g2, out = hm, a = t, b = dinv;
+                it = 0;
+                state = S_DB_STEP;
+                break;
+            // -- one doubling step --
+            case S_DB_STEP + 0:
+                ++it;
+                if (it > DOUBLING_STEPS) {
+                    iterations = DOUBLING_STEPS + sweeps;
+                    result = hm;
+                    state = S_OUTPUT;
+                    break;
+                }
+                op = OP_COPY, out = z, ldo = 2 * n, a = e; // Z = [E, .]
+                state = S_DB_STEP + 1;
+                break;
+            case S_DB_STEP + 1: // Z = [E, G F]
+                op = OP_GEMM, out = z + n, ldo = 2 * n, a = gm, b = f;
+                state = S_DB_STEP + 2;
+                break;
+            case S_DB_STEP + 2: op = OP_GEMM, mode = MODE_EYE_MINUS, out = lu, a = gm, b = hm; state = S_DB_STEP + 3; break;
+            case S_DB_STEP + 3: lu_ret = S_DB_STEP + 4; lu_k = 0; state = S_LU_PIVOT; break;
+            case S_DB_STEP + 4: op = OP_SOLVE, out = z, ldo = 2 * n, cols = 2 * n; state = S_DB_STEP + 5; break;
+            case S_DB_STEP + 5: op = OP_COPY, out = y, ldo = 2 * n, a = f; state = S_DB_STEP + 6; break;
+            case S_DB_STEP + 6: // Y = [F, H E]
+                op = OP_GEMM, out = y + n, ldo = 2 * n, a = hm, b = e;
+                state = S_DB_STEP + 7;
+                break;
+            case S_DB_STEP + 7: op = OP_GEMM, mode = MODE_EYE_MINUS, out = lu, a = hm, b = gm; state = S_DB_STEP + 8; break;
+            case S_DB_STEP + 8: lu_ret = S_DB_STEP + 9; lu_k = 0; state = S_LU_PIVOT; break;
+            case S_DB_STEP + 9: op = OP_SOLVE, out = y, ldo = 2 * n, cols = 2 * n; state = S_DB_STEP + 10; break;
+            case S_DB_STEP + 10: op = OP_GEMM, out = e1, a = e, b = z, ldb = 2 * n; state = S_DB_STEP + 11; break;
+            case S_DB_STEP + 11:
+                op = OP_GEMM, mode = MODE_ADD, out = g1, base = gm, a = e, b = z + n, ldb = 2 * n;
+                state = S_DB_STEP + 12;
+                break;
+            case S_DB_STEP + 12: op = OP_GEMM, out = f1, a = f, b = y, ldb = 2 * n; state = S_DB_STEP + 13; break;
+            case S_DB_STEP + 13:
+                op = OP_GEMM, mode = MODE_ADD, out = h1, base = hm, a = f, b = y + n, ldb = 2 * n;
+                state = S_DB_STEP + 14;
+                break;
+            case S_DB_STEP + 14: op = OP_DIFF; state = S_DB_DECIDE; break;
+            case S_DB_DECIDE: {
+                double c0 = 0.0, s0 = 0.0;
+                int bad = 0;
+                for (int q = 0; q < lsz; ++q) {
+                    c0 = fmax(c0, part_a[q]);
+                    s0 = fmax(s0, part_b[q]);
+                    bad |= part_i[q];
+                }
+                change = c0, scale = s0;
+                __global double* sw;
+                sw = e, e = e1, e1 = sw;
+                sw = f, f = f1, f1 = sw;
+                sw = gm, gm = g1, g1 = sw;
+                sw = hm, hm = h1, h1 = sw;
+                if (bad) {
+                    error = AMB_DOUBLING_DIVERGED;
+                    iterations = it + sweeps;
+                    state = S_FINISHED;
+                } else if (change <= task.tolerance * scale) {
+                    converged = 1;
+                    iterations = it + sweeps;
+                    result = hm;
+                    state = S_OUTPUT;
+                } else {
+                    state = S_DB_STEP;
+                }
+                break;
+            }
+            // -- LU of `lu` with partial pivoting (LuFactor), column lu_k; returns to lu_ret --
+            case S_LU_PIVOT:
+                op = OP_LU_PIVOT;
+                state = S_LU_CHECK;
+                break;
+            case S_LU_CHECK: {
+                // The first row of largest |a_ik| (item 0's partial holds row k, which wins ties and,
+                // if NaN, everything: as the reference's strict > from p = k).
+                double bv = part_a[0], sv = part_b[0];
+                int bi = part_i[0];
+                for (int q = 1; q < lsz; ++q) {
+                    const int oi = part_i[q];
+                    const double ov = part_a[q];
+                    if (oi >= 0 && (bi < 0 || ov > bv || (ov == bv && oi < bi))) {
+                        bv = ov, sv = part_b[q], bi = oi;
+                    }
+                }
+                lu_p = bi;
+                pivot = sv;
+                if (pivot == 0.0 || !isfinite(pivot)) {
+                    error = AMB_SINGULAR;
+                    detail = lu_k;
+                    state = S_FINISHED;
+                    break;
+                }
+                op = OP_LU_SWAP;
+                state = S_LU_SCALE;
+                break;
+            }
+            case S_LU_SCALE: op = OP_LU_SCALE; state = S_LU_UPDATE; break;
+            case S_LU_UPDATE:
+                if (lu_k + 1 < n) {
+                    op = OP_LU_UPDATE;
+                    ++lu_k;
+                    state = S_LU_PIVOT;
+                } else {
+                    state = lu_ret; // the last column has no trailing part
+                }
+                break;
+            case S_OUTPUT:
+                op = OP_COPY, out = x_out, a = result;
+                state = S_FINISHED;
+                break;
+            default:
+                error = -1;
+                state = S_FINISHED;
+                break;
+            }
+        }
+
+        // ---- execute the operation: every work-item its share ----
+        if (op == OP_GEMM) {
+            const int total = n * n; // every product here is n x n (column blocks via ld)
+            for (int q = lid; q < total; q += lsz) {
+                const int i = q / n, j = q % n;
+                double acc = 0.0;
+                for (int k = 0; k < n; ++k) acc += a[i * lda + k] * b[k * ldb + j];
+                double r = acc;
+                if (mode == MODE_ADD) r = base[i * n + j] + acc;
+                else if (mode == MODE_SCALE) r = s * acc;
+                else if (mode == MODE_EYE_MINUS) r = (i == j ? 1.0 : 0.0) - acc;
+                else if (mode == MODE_SUB) r = base[i * n + j] - acc;
+                out[i * ldo + j] = r;
+            }
+        } else if (op == OP_COPY) {
+            for (int q = lid; q < n2; q += lsz) out[(q / n) * ldo + q % n] = a[q];
+        } else if (op == OP_IDENTITY) {
+            for (int q = lid; q < n2; q += lsz) out[q] = (q / n == q % n) ? 1.0 : 0.0;
+        } else if (op == OP_SETUP_FP) {
+            for (int q = lid; q < n2; q += lsz) {
+                const int i = q / n, j = q % n;
+                left[q] = 0.5 * om * pp[q] * w[j] / mu[i];  // (w/2) M^-1 P+ W
+                right[q] = 0.5 * om * w[i] * pp[q] / mu[j]; // (w/2) W P+ M^-1
+                fc[q] = om * w[i] * pm[q] * w[j];
+                fb[q] = 0.25 * om * pm[q] / (mu[i] * mu[j]);
+                x[q] = 0.0;
+            }
+        } else if (op == OP_SETUP_DB) {
+            for (int q = lid; q < n2; q += lsz) {
+                const int i = q / n, j = q % n;
+                double bij = 0.25 * om * pm[q] / (mu[i] * mu[j]);
+                double dij = (i == j ? 1.0 / mu[i] : 0.0) - 0.5 * om * w[i] * pp[q] / mu[j];
+                const double aij = (i == j ? 1.0 / mu[j] : 0.0) - 0.5 * om * w[j] * pp[j * n + i] / mu[i];
+                if (conservative) { // rank-one shift along the conservation null vector, eta = 1
+                    dij += 1.0 * (2.0 * w[i] * mu[i]) / ev1;
+                    bij += 1.0 / ev1;
+                }
+                bb[q] = bij;
+                cc[q] = om * w[i] * pm[q] * w[j];
+                ag[q] = aij + (i == j ? g * 1.0 : g * 0.0);
+                dg[q] = dij + (i == j ? g * 1.0 : g * 0.0);
+            }
+        } else if (op == OP_EF) {
+            for (int q = lid; q < n2; q += lsz) {
+                const double eye = (q / n == q % n) ? 1.0 : 0.0;
+                e[q] = eye - g2 * vinv[q];
+                f[q] = eye - g2 * winv[q];
+            }
+        } else if (op == OP_SWEEP) {
+            double c0 = 0.0, s0 = 0.0;
+            int bad = 0;
+            for (int q = lid; q < n2; q += lsz) {
+                const int i = q / n, j = q % n;
+                double lx = 0.0, xr = 0.0, xcx = 0.0;
+                for (int k = 0; k < n; ++k) lx += left[i * n + k] * x[k * n + j];
+                for (int k = 0; k < n; ++k) xr += x[i * n + k] * right[k * n + j];
+                for (int k = 0; k < n; ++k) xcx += t[i * n + k] * x[k * n + j];
+                double v = ((fb[q] + lx) + xr) + xcx;
+                v /= 1.0 / mu[i] + 1.0 / mu[j];
+                nx[q] = v;
+                c0 = fmax(c0, fabs(v - x[q]));
+                s0 = fmax(s0, fabs(v));
+                bad |= !isfinite(v);
+            }
+            part_a[lid] = c0, part_b[lid] = s0, part_i[lid] = bad;
+        } else if (op == OP_DIFF) {
+            double c0 = 0.0, s0 = 0.0;
+            int bad = 0;
+            for (int q = lid; q < n2; q += lsz) {
+                c0 = fmax(c0, fabs(h1[q] - hm[q]));
+                s0 = fmax(s0, fabs(h1[q]));
+                bad |= !isfinite(h1[q]);
+            }
+            part_a[lid] = c0, part_b[lid] = s0, part_i[lid] = bad;
+        } else if (op == OP_LU_PIVOT) {
+            const int k = lu_k;
+            double bv = -1.0, sv = 0.0;
+            int bi = -1;
+            if (lid == 0) {
+                sv = lu_a[k * n + k];
+                bv = fabs(sv);
+                bi = k;
+            }
+            for (int i = k + lid; i < n; i += lsz) {
+                if (i == k) continue;
+                const double v = lu_a[i * n + k];
+                if (fabs(v) > bv) { // rows with NaN never win
+                    bv = fabs(v), sv = v, bi = i;
+                }
+            }
+            part_a[lid] = bv, part_b[lid] = sv, part_i[lid] = bi;
+        } else if (op == OP_LU_SWAP) {
+            const int k = lu_k, p = lu_p;
+            if (lid == 0) piv[k] = p;
+            if (p != k) {
+                for (int j = lid; j < n; j += lsz) {
+                    const double tmp = lu_a[k * n + j];
+                    lu_a[k * n + j] = lu_a[p * n + j];
+                    lu_a[p * n + j] = tmp;
+                }
+            }
+        } else if (op == OP_LU_SCALE) {
+            for (int i = lu_k + 1 + lid; i < n; i += lsz) lu_a[i * n + lu_k] /= pivot;
+        } else if (op == OP_LU_UPDATE) {
+            const int k = lu_k - 1; // already advanced by the control
+            const int rest = n - k - 1;
+            for (int q = lid; q < rest * rest; q += lsz) {
+                const int i = k + 1 + q / rest, j = k + 1 + q % rest;
+                lu_a[i * n + j] -= lu_a[i * n + k] * lu_a[k * n + j];
+            }
+        } else if (op == OP_SOLVE) {
+            // (LU) X = B for B = out (n x cols, leading dimension ldo): each work-item whole columns.
+            for (int j = lid; j < cols; j += lsz) {
+                for (int k = 0; k < n; ++k) {
+                    const int p = piv[k];
+                    if (p != k) {
+                        const double tmp = out[k * ldo + j];
+                        out[k * ldo + j] = out[p * ldo + j];
+                        out[p * ldo + j] = tmp;
+                    }
+                }
+                for (int i = 0; i < n; ++i) {
+                    double v = out[i * ldo + j];
+                    for (int k = 0; k < i; ++k) v -= lu[i * n + k] * out[k * ldo + j];
+                    out[i * ldo + j] = v;
+                }
+                for (int i = n - 1; i >= 0; --i) {
+                    double v = out[i * ldo + j];
+                    for (int k = i + 1; k < n; ++k) v -= lu[i * n + k] * out[k * ldo + j];
+                    out[i * ldo + j] = v / lu[i * n + i];
+                }
+            }
+        }
+        barrier(CLK_LOCAL_MEM_FENCE | CLK_GLOBAL_MEM_FENCE);
+    }
+
+    if (lid == 0) {
+        status[group].last_change = change;
+        status[group].scale = scale;
+        status[group].iterations = iterations;
+        status[group].converged = converged;
+        status[group].error = error;
+        status[group].detail = detail;
+    }
+}

@@ -1,0 +1,213 @@
+// Host side of kernels/ambartsumian.cl: packs a batch of order problems into one input buffer, one
+// task array, one output and one workspace buffer, runs one work-group per problem and unpacks the
+// solutions. The residual is computed here with the reference's riccati_residual, so an OrderSolution
+// from this path is filled exactly like one from solve_order.
+
+#include <brdf/rte/cl_solver.h>
+
+#include <brdf/cl/context.h>
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+
+#include <shared/ambartsumian_layout.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+
+namespace brdf::rte {
+
+static_assert(sizeof(AmbTask) == 72);
+static_assert(offsetof(AmbTask, input_offset) == 0);
+static_assert(offsetof(AmbTask, output_offset) == 8);
+static_assert(offsetof(AmbTask, workspace_offset) == 16);
+static_assert(offsetof(AmbTask, omega) == 24);
+static_assert(offsetof(AmbTask, tolerance) == 32);
+static_assert(offsetof(AmbTask, gamma) == 40);
+static_assert(offsetof(AmbTask, n) == 48);
+static_assert(offsetof(AmbTask, m) == 52);
+static_assert(offsetof(AmbTask, method) == 56);
+static_assert(offsetof(AmbTask, max_iterations) == 60);
+static_assert(offsetof(AmbTask, fast_sweeps) == 64);
+static_assert(offsetof(AmbTask, pad) == 68);
+static_assert(sizeof(AmbStatus) == 32);
+static_assert(offsetof(AmbStatus, last_change) == 0);
+static_assert(offsetof(AmbStatus, scale) == 8);
+static_assert(offsetof(AmbStatus, iterations) == 16);
+static_assert(offsetof(AmbStatus, converged) == 20);
+static_assert(offsetof(AmbStatus, error) == 24);
+static_assert(offsetof(AmbStatus, detail) == 28);
+static_assert(static_cast<int>(Method::FixedPoint) == AMB_FIXED_POINT);
+static_assert(static_cast<int>(Method::Doubling) == AMB_DOUBLING);
+static_assert(static_cast<int>(Method::Fast) == AMB_FAST);
+static_assert(max_opencl_streams == AMB_MAX_N);
+
+namespace {
+
+constexpr std::size_t preferred_local_size = 64;
+
+std::size_t floor_power_of_two(std::size_t v) {
+    std::size_t p = 1;
+    while (p * 2 <= v) p *= 2;
+    return p;
+}
+
+std::size_t input_doubles(int n) { return 2 * static_cast<std::size_t>(n) + 2 * static_cast<std::size_t>(n) * n; }
+std::size_t workspace_doubles(int n) { return AMB_WORKSPACE_MATRICES * static_cast<std::size_t>(n) * n; }
+
+void validate(const OrderProblem& p, std::size_t index) {
+    const int n = p.streams.size();
+    if (n < 1 || n > max_opencl_streams)
+        throw InputError(cat("OpenCL order solver: problem ", index, " (order ", p.m, ") has ", n,
+                             " streams; the kernel takes 1 to ", max_opencl_streams));
+    if (static_cast<int>(p.streams.w.size()) != n || p.p_plus.rows() != n || p.p_plus.cols() != n ||
+        p.p_minus.rows() != n || p.p_minus.cols() != n)
+        throw InputError(cat("OpenCL order solver: problem ", index, " (order ", p.m,
+                             ") has inconsistent sizes (", n, " streams)"));
+}
+
+template <typename T>
+::cl::Buffer make_buffer(::cl::Context& context, cl_mem_flags flags, std::vector<T>& data, const char* what) {
+    cl_int err = CL_SUCCESS;
+    ::cl::Buffer buffer(context, flags | (data.empty() ? 0 : CL_MEM_COPY_HOST_PTR),
+                        std::max<std::size_t>(1, data.size()) * sizeof(T), data.empty() ? nullptr : data.data(), &err);
+    brdf::cl::check(err, cat("OpenCL order solver: create buffer ", what));
+    return buffer;
+}
+
+// One launch over problems[first, last).
+void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, std::size_t local_size,
+                 std::span<const OrderProblem> problems, std::size_t first, std::size_t last, Method method,
+                 const SolveControl& control, std::vector<OrderSolution>& out) {
+    const std::size_t count = last - first;
+    std::vector<AmbTask> tasks(count);
+    std::size_t in_size = 0, out_size = 0, ws_size = 0;
+    for (std::size_t k = 0; k < count; ++k) {
+        const OrderProblem& p = problems[first + k];
+        const int n = p.streams.size();
+        AmbTask& t = tasks[k];
+        t.input_offset = static_cast<brdf_i64>(in_size);
+        t.output_offset = static_cast<brdf_i64>(out_size);
+        t.workspace_offset = static_cast<brdf_i64>(ws_size);
+        t.omega = p.omega;
+        t.tolerance = control.tolerance;
+        t.gamma = control.gamma;
+        t.n = n;
+        t.m = p.m;
+        t.method = static_cast<brdf_i32>(method);
+        t.max_iterations = control.max_iterations;
+        t.fast_sweeps = control.fast_sweeps;
+        t.pad = 0;
+        in_size += input_doubles(n);
+        out_size += static_cast<std::size_t>(n) * n;
+        ws_size += workspace_doubles(n);
+    }
+    std::vector<double> input(in_size);
+    for (std::size_t k = 0; k < count; ++k) {
+        const OrderProblem& p = problems[first + k];
+        double* dst = input.data() + tasks[k].input_offset;
+        dst = std::copy(p.streams.mu.begin(), p.streams.mu.end(), dst);
+        dst = std::copy(p.streams.w.begin(), p.streams.w.end(), dst);
+        dst = std::copy(p.p_plus.data().begin(), p.p_plus.data().end(), dst);
+        std::copy(p.p_minus.data().begin(), p.p_minus.data().end(), dst);
+    }
+
+    cl_int err = CL_SUCCESS;
+    ::cl::Context& context = ctx.context();
+    ::cl::Buffer task_buf = make_buffer(context, CL_MEM_READ_ONLY, tasks, "tasks");
+    ::cl::Buffer in_buf = make_buffer(context, CL_MEM_READ_ONLY, input, "input");
+    ::cl::Buffer out_buf(context, CL_MEM_WRITE_ONLY, out_size * sizeof(double), nullptr, &err);
+    brdf::cl::check(err, "OpenCL order solver: create buffer output");
+    ::cl::Buffer ws_buf(context, CL_MEM_READ_WRITE, ws_size * sizeof(double), nullptr, &err);
+    brdf::cl::check(err, "OpenCL order solver: create buffer workspace");
+    ::cl::Buffer status_buf(context, CL_MEM_WRITE_ONLY, count * sizeof(AmbStatus), nullptr, &err);
+    brdf::cl::check(err, "OpenCL order solver: create buffer status");
+
+    brdf::cl::check(kernel.setArg(0, task_buf), "OpenCL order solver: set argument tasks");
+    brdf::cl::check(kernel.setArg(1, in_buf), "OpenCL order solver: set argument input");
+    brdf::cl::check(kernel.setArg(2, out_buf), "OpenCL order solver: set argument output");
+    brdf::cl::check(kernel.setArg(3, ws_buf), "OpenCL order solver: set argument workspace");
+    brdf::cl::check(kernel.setArg(4, status_buf), "OpenCL order solver: set argument status");
+
+    ::cl::CommandQueue& queue = ctx.queue();
+    brdf::cl::check(queue.enqueueNDRangeKernel(kernel, ::cl::NullRange, ::cl::NDRange(count * local_size),
+                                               ::cl::NDRange(local_size)),
+                    "OpenCL order solver: run ambartsumian_solve");
+    std::vector<double> output(out_size);
+    std::vector<AmbStatus> status(count);
+    brdf::cl::check(queue.enqueueReadBuffer(out_buf, CL_FALSE, 0, out_size * sizeof(double), output.data()),
+                    "OpenCL order solver: read output");
+    brdf::cl::check(queue.enqueueReadBuffer(status_buf, CL_FALSE, 0, count * sizeof(AmbStatus), status.data()),
+                    "OpenCL order solver: read status");
+    brdf::cl::check(queue.finish(), "OpenCL order solver: finish");
+
+    for (std::size_t k = 0; k < count; ++k) {
+        const OrderProblem& p = problems[first + k];
+        const AmbStatus& st = status[k];
+        switch (st.error) {
+        case AMB_OK: break;
+        case AMB_FIXED_POINT_DIVERGED:
+            throw NumericalError(cat("fixed-point iteration diverged at order ", p.m, ", omega ", p.omega,
+                                     " (OpenCL)"));
+        case AMB_DOUBLING_DIVERGED:
+            throw NumericalError(cat("doubling diverged at order ", p.m, ", omega ", p.omega, " (OpenCL)"));
+        case AMB_SINGULAR:
+            throw NumericalError(cat("LU: matrix is singular or not finite at column ", st.detail, " of ",
+                                     p.streams.size(), " (order ", p.m, ", omega ", p.omega, ", OpenCL)"));
+        default:
+            throw DeviceError(cat("OpenCL order solver: unknown status ", st.error, " for order ", p.m));
+        }
+        const int n = p.streams.size();
+        OrderSolution s;
+        s.x = Matrix(n, n);
+        std::copy_n(output.begin() + tasks[k].output_offset, static_cast<std::size_t>(n) * n, s.x.data().begin());
+        s.iterations = st.iterations;
+        s.converged = st.converged != 0;
+        s.residual = riccati_residual(riccati_matrices(p), s.x);
+        out[first + k] = std::move(s);
+    }
+}
+
+} // namespace
+
+std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> problems, Method method,
+                                               const SolveControl& control) {
+    if (method != Method::FixedPoint && method != Method::Doubling && method != Method::Fast)
+        throw InputError("unknown solver method");
+    for (std::size_t k = 0; k < problems.size(); ++k) validate(problems[k], k);
+    std::vector<OrderSolution> out(problems.size());
+    if (problems.empty()) return out;
+
+    auto ctx = brdf::cl::Context::shared();
+    const ::cl::Program program = ctx->program("ambartsumian");
+    cl_int err = CL_SUCCESS;
+    ::cl::Kernel kernel(program, "ambartsumian_solve", &err);
+    brdf::cl::check(err, "OpenCL order solver: create kernel ambartsumian_solve");
+    std::size_t kernel_max = 0;
+    brdf::cl::check(kernel.getWorkGroupInfo(ctx->device(), CL_KERNEL_WORK_GROUP_SIZE, &kernel_max),
+                    "OpenCL order solver: query kernel work-group size");
+    const std::size_t local_size = floor_power_of_two(
+        std::max<std::size_t>(1, std::min({preferred_local_size, ctx->info().max_work_group_size, kernel_max,
+                                           static_cast<std::size_t>(AMB_MAX_WG)})));
+    cl_ulong max_alloc = 0;
+    brdf::cl::check(ctx->device().getInfo(CL_DEVICE_MAX_MEM_ALLOC_SIZE, &max_alloc),
+                    "OpenCL order solver: query max allocation size");
+    const std::size_t budget = std::min<std::size_t>(static_cast<std::size_t>(max_alloc), std::size_t{1} << 30);
+
+    // Split into launches whose workspace fits one allocation.
+    std::size_t first = 0;
+    while (first < problems.size()) {
+        std::size_t last = first, bytes = 0;
+        while (last < problems.size()) {
+            const std::size_t b = workspace_doubles(problems[last].streams.size()) * sizeof(double);
+            if (last > first && bytes + b > budget) break;
+            bytes += b;
+            ++last;
+        }
+        solve_range(*ctx, kernel, local_size, problems, first, last, method, control, out);
+        first = last;
+    }
+    return out;
+}
+
+} // namespace brdf::rte

@@ -1,0 +1,324 @@
+#include <brdf/service/daemon.h>
+
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+#include <brdf/service/spool.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <csignal>
+#include <cstring>
+#include <fcntl.h>
+#include <mutex>
+#include <optional>
+#include <poll.h>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <unistd.h>
+#include <vector>
+
+namespace brdf::service {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Jobs of daemons that died while this one keeps running are picked up this often.
+constexpr std::chrono::seconds orphan_scan_interval{30};
+
+constexpr char wake_stop = 's';     // options.stop was requested
+constexpr char wake_finished = 'x'; // the last worker has ended
+
+/// A pipe the control thread blocks on; signal handlers, the stop callback and the last worker write
+/// one byte each. The write end is non-blocking so a signal handler can never hang on a full pipe.
+class WakePipe {
+public:
+    WakePipe() {
+        if (::pipe2(m_fd, O_CLOEXEC) != 0)
+            throw IoError(cat("brdfd: cannot create a pipe: ", std::strerror(errno)));
+        ::fcntl(m_fd[1], F_SETFL, ::fcntl(m_fd[1], F_GETFL) | O_NONBLOCK);
+    }
+    ~WakePipe() {
+        ::close(m_fd[0]);
+        ::close(m_fd[1]);
+    }
+    WakePipe(const WakePipe&) = delete;
+    WakePipe& operator=(const WakePipe&) = delete;
+
+    int write_fd() const { return m_fd[1]; }
+    void notify(char c) const { [[maybe_unused]] const ssize_t k = ::write(m_fd[1], &c, 1); }
+    char wait() const {
+        // poll with a timeout rather than a blocking read: ThreadSanitizer delivers a signal to a
+        // thread only when it leaves a call, and a read that never returns would never see it.
+        for (;;) {
+            pollfd fd{m_fd[0], POLLIN, 0};
+            const int n = ::poll(&fd, 1, 250);
+            if (n < 0 && errno != EINTR)
+                throw IoError(cat("brdfd: cannot wait on the wake pipe: ", std::strerror(errno)));
+            if (n <= 0) continue;
+            char c = 0;
+            if (::read(m_fd[0], &c, 1) == 1) return c;
+        }
+    }
+
+private:
+    int m_fd[2] = {-1, -1};
+};
+
+// The self-pipe trick: the handler only writes the signal number into the daemon's wake pipe.
+std::atomic<int> g_signal_fd{-1};
+
+extern "C" void on_stop_signal(int signo) {
+    const int saved = errno;
+    const int fd = g_signal_fd.load();
+    if (fd >= 0) {
+        const char c = static_cast<char>(signo);
+        [[maybe_unused]] const ssize_t k = ::write(fd, &c, 1);
+    }
+    errno = saved;
+}
+
+/// Routes SIGTERM and SIGINT into a wake pipe while it lives; restores the previous handlers after.
+class SignalRoute {
+public:
+    explicit SignalRoute(int fd) {
+        int expected = -1;
+        if (!g_signal_fd.compare_exchange_strong(expected, fd))
+            throw std::logic_error("run_daemon: another daemon in this process already handles signals");
+        struct sigaction action{};
+        action.sa_handler = on_stop_signal;
+        sigemptyset(&action.sa_mask);
+        action.sa_flags = SA_RESTART;
+        ::sigaction(SIGTERM, &action, &m_old_term);
+        ::sigaction(SIGINT, &action, &m_old_int);
+    }
+    ~SignalRoute() {
+        ::sigaction(SIGTERM, &m_old_term, nullptr);
+        ::sigaction(SIGINT, &m_old_int, nullptr);
+        g_signal_fd = -1;
+    }
+    SignalRoute(const SignalRoute&) = delete;
+    SignalRoute& operator=(const SignalRoute&) = delete;
+
+private:
+    struct sigaction m_old_term{};
+    struct sigaction m_old_int{};
+};
+
+const char* signal_name(char c) {
+    if (c == SIGTERM) return "SIGTERM";
+    if (c == SIGINT) return "SIGINT";
+    return "stop request";
+}
+
+class Daemon {
+public:
+    Daemon(const DaemonOptions& options, const JobRunner& runner)
+        : m_options(options), m_runner(runner), m_spool(options.spool), m_lease(m_spool),
+          m_started(iso8601_now()), m_poll(std::chrono::duration_cast<Clock::duration>(
+                                        std::chrono::duration<double>(options.poll_seconds))) {}
+
+    int run() {
+        for (const std::string& name : m_spool.requeue_orphans())
+            log::info("brdfd: requeued ", name, " (left in active/ by a daemon that is gone)");
+        m_last_orphan_scan = Clock::now();
+
+        std::optional<SignalRoute> signals;
+        if (m_options.handle_signals) signals.emplace(m_wake.write_fd());
+        std::stop_callback on_stop(m_options.stop, [this] { m_wake.notify(wake_stop); });
+
+        log::info("brdfd: serving ", m_spool.root().string(), " as ", m_lease.id(), " with ",
+                  m_options.workers, " worker(s)", m_options.once ? ", until drained (--once)" : "");
+        {
+            std::lock_guard lock(m_mutex);
+            write_status_locked();
+        }
+        std::vector<std::thread> workers;
+        m_live_workers = m_options.workers;
+        try {
+            for (int i = 0; i < m_options.workers; ++i) workers.emplace_back([this, i] { worker(i); });
+        } catch (...) {
+            request_stop(wake_stop);
+            for (std::thread& t : workers) t.join();
+            throw;
+        }
+
+        for (;;) {
+            const char c = m_wake.wait();
+            if (c == wake_finished) break;
+            request_stop(c);
+        }
+        for (std::thread& t : workers) t.join();
+
+        std::lock_guard lock(m_mutex);
+        m_state = "stopped";
+        write_status_locked();
+        log::info("brdfd: stopped (", m_done, " done, ", m_failed, " failed)");
+        return m_options.once && m_failed > 0 ? 1 : 0;
+    }
+
+private:
+    void request_stop(char why) {
+        std::lock_guard lock(m_mutex);
+        if (!m_stopping) {
+            m_stopping = true;
+            m_state = "draining";
+            log::info("brdfd: ", signal_name(why), ": taking no new jobs; waiting for ",
+                      m_running.size(), " running job(s)");
+            write_status_locked();
+            m_cv.notify_all();
+        } else if (why != wake_stop) {
+            log::warn("brdfd: ", signal_name(why), ": already stopping; waiting for ", m_running.size(),
+                      " running job(s). SIGKILL aborts them; the next daemon start requeues them");
+        }
+    }
+
+    void worker(int index) {
+        std::unique_lock lock(m_mutex);
+        while (!m_stopping && !m_drained) {
+            std::optional<std::string> job;
+            try {
+                scan_orphans_locked();
+                job = claim_next_locked();
+            } catch (const std::exception& e) {
+                log::error("brdfd: ", e.what());
+                m_cv.wait_for(lock, m_poll);
+                continue;
+            }
+            if (job) {
+                m_running.push_back(*job);
+                write_status_locked();
+                lock.unlock();
+                const bool ok = run_job(*job, index);
+                lock.lock();
+                m_running.erase(std::find(m_running.begin(), m_running.end(), *job));
+                ++(ok ? m_done : m_failed);
+                write_status_locked();
+                m_cv.notify_all();
+                continue;
+            }
+            if (m_options.once && m_running.empty()) {
+                // Nothing queued and nothing of ours running: drained.
+                m_drained = true;
+                m_cv.notify_all();
+                break;
+            }
+            m_cv.wait_for(lock, m_poll);
+            if (m_spool.queued().size() != m_last_queued) write_status_locked();
+        }
+        if (--m_live_workers == 0) m_wake.notify(wake_finished);
+    }
+
+    void scan_orphans_locked() {
+        if (Clock::now() - m_last_orphan_scan < orphan_scan_interval) return;
+        m_last_orphan_scan = Clock::now();
+        for (const std::string& name : m_spool.requeue_orphans())
+            log::info("brdfd: requeued ", name, " (left in active/ by a daemon that is gone)");
+    }
+
+    /// Claims the oldest job this daemon can get; none when incoming/ is empty or others won them all.
+    std::optional<std::string> claim_next_locked() {
+        for (const std::string& name : m_spool.queued())
+            if (m_spool.claim(name, m_lease)) return name;
+        return std::nullopt;
+    }
+
+    /// Runs one job and files it; the one place (with tools' mains) where job errors are caught.
+    bool run_job(const std::string& name, int index) {
+        log::info("job ", name, ": started (worker ", index, ")");
+        const Clock::time_point t0 = Clock::now();
+        bool ok = false;
+        std::string kind, message;
+        try {
+            m_runner(m_spool.active() / name, m_spool.results());
+            ok = true;
+        } catch (const Error& e) {
+            kind = to_string(e.kind());
+            message = e.what();
+        } catch (const std::exception& e) {
+            kind = "internal";
+            message = e.what();
+        } catch (...) {
+            kind = "internal";
+            message = "unknown exception";
+        }
+        const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+        try {
+            if (ok)
+                m_spool.finish(name);
+            else
+                m_spool.fail(name, kind, message, seconds);
+        } catch (const std::exception& e) {
+            log::error("job ", name, ": cannot file it under ", ok ? "done/" : "failed/", ": ",
+                       e.what());
+        }
+        if (ok)
+            log::info("job ", name, ": done in ", seconds, " s");
+        else
+            log::error("job ", name, ": failed after ", seconds, " s (", kind, "): ", message);
+        return ok;
+    }
+
+    void write_status_locked() {
+        const std::vector<std::string> queued = m_spool.queued();
+        m_last_queued = queued.size();
+        const nlohmann::json status = {{"daemon", m_lease.id()},
+                                       {"pid", static_cast<long>(::getpid())},
+                                       {"spool", m_spool.root().string()},
+                                       {"started", m_started},
+                                       {"updated", iso8601_now()},
+                                       {"state", m_state},
+                                       {"workers", m_options.workers},
+                                       {"queued", queued.size()},
+                                       {"running", m_running},
+                                       {"done", m_done},
+                                       {"failed", m_failed}};
+        try {
+            write_file_atomic(m_spool.status_file(), status.dump(2) + "\n", false);
+        } catch (const Error& e) {
+            log::warn("brdfd: ", e.what());
+        }
+    }
+
+    const DaemonOptions& m_options;
+    const JobRunner& m_runner;
+    Spool m_spool;
+    DaemonLease m_lease;
+    const std::string m_started;
+    const Clock::duration m_poll;
+    WakePipe m_wake;
+
+    std::mutex m_mutex; // guards everything below
+    std::condition_variable m_cv;
+    bool m_stopping = false;
+    bool m_drained = false;
+    std::string m_state = "running";
+    std::vector<std::string> m_running;
+    long m_done = 0;
+    long m_failed = 0;
+    int m_live_workers = 0;
+    std::size_t m_last_queued = 0;
+    Clock::time_point m_last_orphan_scan;
+};
+
+} // namespace
+
+int run_daemon(const DaemonOptions& options, const JobRunner& runner) {
+    if (options.spool.empty()) throw InputError("--spool: a folder is required");
+    if (options.workers < 1)
+        throw InputError(cat("--workers: must be >= 1 (got ", options.workers, ")"));
+    if (!(options.poll_seconds > 0.0) || !std::isfinite(options.poll_seconds) ||
+        options.poll_seconds > 3600.0)
+        throw InputError(cat("--poll: must be in (0, 3600] seconds (got ", options.poll_seconds, ")"));
+    if (!runner) throw std::invalid_argument("run_daemon: no job runner");
+    Daemon daemon(options, runner);
+    return daemon.run();
+}
+
+} // namespace brdf::service

@@ -1,0 +1,103 @@
+#pragma once
+// The brdfd spool folder: DIR/{incoming,active,results,done,failed}/ plus the ownership records that
+// keep two daemons apart. See docs/daemon.md for the protocol and why it is built on flock(2).
+//
+//   incoming/NAME.json   dropped in by users (written elsewhere, then renamed in)
+//   active/NAME.json     claimed by a daemon: an atomic rename out of incoming/ is the claim
+//   active/NAME.json.owner   {"daemon": ID, "pid", "host", "claimed"}: which daemon runs it
+//   daemons/ID.lock      held with flock(LOCK_EX) by daemon ID for as long as it lives
+//   done/NAME.json       finished; failed/NAME.json + failed/NAME.error.json when the job threw
+//   results/             what the jobs write
+//   status.json          the daemon's state (written by the daemon, not by this class)
+//   .spool.lock          flock: claims take it shared, the orphan scan exclusive
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace brdf::service {
+
+class DaemonLease;
+
+class Spool {
+public:
+    /// Opens the spool at `root`, creating it and its folders when missing; throws IoError when a
+    /// folder cannot be created.
+    explicit Spool(std::filesystem::path root);
+
+    const std::filesystem::path& root() const { return m_root; }
+    std::filesystem::path incoming() const { return m_root / "incoming"; }
+    std::filesystem::path active() const { return m_root / "active"; }
+    std::filesystem::path results() const { return m_root / "results"; }
+    std::filesystem::path done() const { return m_root / "done"; }
+    std::filesystem::path failed() const { return m_root / "failed"; }
+    std::filesystem::path daemons() const { return m_root / "daemons"; }
+    std::filesystem::path status_file() const { return m_root / "status.json"; }
+
+    /// A job is a file name ending in ".json" that is not hidden (".*"); temporaries ("*.tmp") and
+    /// ownership records never qualify.
+    static bool is_job_name(std::string_view name);
+    /// The error record beside a failed spec: "paint.json" -> "paint.error.json".
+    static std::string error_name(std::string_view name);
+
+    /// Jobs waiting in incoming/ (regular files only), oldest first: by modification time, then name.
+    std::vector<std::string> queued() const;
+    /// Jobs in active/, by name.
+    std::vector<std::string> active_jobs() const;
+
+    /// Claims incoming/NAME for the lease's daemon: renames it into active/ (never replacing a job of
+    /// the same name that is running there) and records the owner. Returns false, without error, when
+    /// the job is gone (another daemon won) or a same-named job is active.
+    bool claim(const std::string& name, const DaemonLease& owner);
+    /// active/NAME -> done/NAME; drops the owner record.
+    void finish(const std::string& name);
+    /// Writes failed/NAME.error.json {"spec", "error", "kind", "time", "seconds"}, then moves
+    /// active/NAME -> failed/NAME and drops the owner record.
+    void fail(const std::string& name, const std::string& kind, const std::string& message,
+              double seconds);
+    /// active/NAME -> incoming/NAME (keeping its modification time, so it is taken first again);
+    /// drops the owner record. Returns false when a newer incoming/NAME exists: the stale copy then
+    /// fails as superseded instead of overwriting the user's new file.
+    bool requeue(const std::string& name);
+
+    /// Requeues every active job whose owner daemon is gone (or that has no owner record), removes
+    /// owner records and daemon locks of dead daemons. Safe against live daemons: runs under the
+    /// exclusive spool lock, so no claim is half done while it looks. Returns the requeued names.
+    std::vector<std::string> requeue_orphans();
+
+    /// Whether daemon ID holds its lock, i.e. its process is alive.
+    bool daemon_alive(const std::string& id) const;
+
+private:
+    std::filesystem::path owner_file(const std::string& name) const;
+
+    std::filesystem::path m_root;
+};
+
+/// A daemon's registration on a spool: a unique ID ("host-pid-random") and daemons/ID.lock, held with
+/// flock for the lease's lifetime. The kernel drops the lock when the process dies in any way
+/// (SIGKILL, OOM, power loss), which is what tells other daemons that its jobs are orphans.
+class DaemonLease {
+public:
+    explicit DaemonLease(const Spool& spool);
+    ~DaemonLease();
+    DaemonLease(const DaemonLease&) = delete;
+    DaemonLease& operator=(const DaemonLease&) = delete;
+
+    const std::string& id() const { return m_id; }
+
+private:
+    std::filesystem::path m_path;
+    std::string m_id;
+    int m_fd = -1;
+};
+
+/// Writes `content` to a temporary name beside `path`, flushes it (and fsyncs it when `durable`),
+/// then renames it over `path`: readers see the old file or the new one, never a partial one.
+void write_file_atomic(const std::filesystem::path& path, std::string_view content, bool durable);
+
+/// Now as ISO 8601 UTC, e.g. "2024-05-01T12:34:56Z".
+std::string iso8601_now();
+
+} // namespace brdf::service

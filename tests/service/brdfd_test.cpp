@@ -1,0 +1,216 @@
+// The real brdfd binary as a user runs it: help, version, usage errors, --once exit statuses, SIGTERM
+// and SIGINT while a job runs, a SIGKILLed daemon's job picked up by the next one. Jobs use the
+// BRDFD_TEST_RUNNER=sleep:SECONDS test hook (docs/daemon.md) instead of the compute pipeline.
+
+#include <brdf/core/version.h>
+
+#include "spool_fixture.h"
+
+#include <nlohmann/json.hpp>
+
+#include <csignal>
+#include <cstring>
+#include <fcntl.h>
+#include <optional>
+#include <thread>
+#include <sys/wait.h>
+#include <unistd.h>
+
+extern char** environ;
+
+namespace brdf::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// brdfd running in the background, its stdout and stderr going to a file; killed if still running
+/// when destroyed.
+class Brdfd {
+public:
+    Brdfd(const std::vector<std::string>& args, const std::string& test_runner, const fs::path& log)
+        : m_log(log) {
+        std::vector<std::string> argv{(bin_dir() / "brdfd").string()};
+        argv.insert(argv.end(), args.begin(), args.end());
+        std::vector<std::string> env;
+        for (char** e = environ; *e; ++e)
+            if (std::strncmp(*e, "BRDFD_TEST_RUNNER=", 18) != 0) env.emplace_back(*e);
+        if (!test_runner.empty()) env.push_back("BRDFD_TEST_RUNNER=" + test_runner);
+        // Everything exec needs is built before fork: the child only dup2s and execs.
+        std::vector<char*> cargv, cenv;
+        for (std::string& a : argv) cargv.push_back(a.data());
+        cargv.push_back(nullptr);
+        for (std::string& e : env) cenv.push_back(e.data());
+        cenv.push_back(nullptr);
+        const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+        if (fd < 0) throw std::runtime_error("cannot create " + log.string());
+        m_pid = fork();
+        if (m_pid < 0) throw std::runtime_error("fork failed");
+        if (m_pid == 0) {
+            dup2(fd, 1);
+            dup2(fd, 2);
+            execve(cargv[0], cargv.data(), cenv.data());
+            _exit(127);
+        }
+        ::close(fd);
+    }
+    ~Brdfd() {
+        if (m_pid > 0 && !m_status) {
+            kill(m_pid, SIGKILL);
+            waitpid(m_pid, nullptr, 0);
+        }
+    }
+    Brdfd(const Brdfd&) = delete;
+    Brdfd& operator=(const Brdfd&) = delete;
+
+    void signal(int signo) const { kill(m_pid, signo); }
+    /// Exit status (128 + signal when killed by one), or -1 if still running after `seconds`.
+    int wait(double seconds) {
+        if (m_status) return *m_status;
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+        for (;;) {
+            int status = 0;
+            if (waitpid(m_pid, &status, WNOHANG) == m_pid) {
+                m_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+                return *m_status;
+            }
+            if (std::chrono::steady_clock::now() > deadline) return -1;
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+    }
+    std::string log() const { return read_file(m_log); }
+
+private:
+    fs::path m_log;
+    pid_t m_pid = -1;
+    std::optional<int> m_status;
+};
+
+nlohmann::json status_of(const fs::path& spool) {
+    try {
+        return nlohmann::json::parse(read_file(spool / "status.json"));
+    } catch (const std::exception&) {
+        return nlohmann::json::object();
+    }
+}
+
+bool running_jobs(const fs::path& spool, std::size_t n) {
+    const nlohmann::json s = status_of(spool);
+    return s.contains("running") && s["running"].size() == n;
+}
+
+TEST(Brdfd, VersionAndHelp) {
+    const ProcessResult version = run_tool("brdfd", {"--version"});
+    EXPECT_EQ(version.status, 0);
+    EXPECT_NE(version.out.find(version_string), std::string::npos) << version.out;
+    const ProcessResult help = run_tool("brdfd", {"--help"});
+    EXPECT_EQ(help.status, 0);
+    for (const char* text : {"--spool", "--workers", "--once", "--poll", "--log-level", "Exit status",
+                             "incoming", "SIGTERM"})
+        EXPECT_NE(help.out.find(text), std::string::npos) << text << " not in\n" << help.out;
+}
+
+TEST(Brdfd, UsageErrors) {
+    TempDir tmp;
+    EXPECT_EQ(run_tool("brdfd", {}).status, 2); // --spool is required
+    EXPECT_EQ(run_tool("brdfd", {"--spool", (tmp / "s").string(), "--workers", "0"}).status, 2);
+    EXPECT_EQ(run_tool("brdfd", {"--spool", (tmp / "s").string(), "--poll", "-1"}).status, 2);
+    EXPECT_EQ(run_tool("brdfd", {"--spool", (tmp / "s").string(), "--frobnicate"}).status, 2);
+    const ProcessResult level =
+        run_tool("brdfd", {"--spool", (tmp / "s").string(), "--once", "--log-level", "loud"});
+    EXPECT_EQ(level.status, 3);
+    EXPECT_NE(level.err.find("loud"), std::string::npos) << level.err;
+}
+
+TEST(Brdfd, UnusableSpoolIsIoError) {
+    TempDir tmp;
+    write_file(tmp / "file", "x");
+    const ProcessResult r = run_tool("brdfd", {"--spool", (tmp / "file" / "spool").string(), "--once"});
+    EXPECT_EQ(r.status, 7);
+    EXPECT_NE(r.err.find("brdfd: "), std::string::npos) << r.err;
+}
+
+TEST(Brdfd, OnceExitStatusTellsWhetherAnyJobFailed) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    submit(spool, "a.json");
+    submit(spool, "b.json");
+    {
+        Brdfd d({"--spool", spool.string(), "--once", "--workers", "2"}, "sleep:0", tmp / "log1");
+        EXPECT_EQ(d.wait(30), 0) << d.log();
+        EXPECT_NE(d.log().find("job a.json: done in"), std::string::npos) << d.log();
+    }
+    EXPECT_EQ(list_files(spool / "done"), (std::vector<std::string>{"a.json", "b.json"}));
+    EXPECT_TRUE(fs::exists(spool / "results" / "a.result"));
+
+    submit(spool, "c.json");
+    submit(spool, "bad.json", "{\"brdfd-test-fail\": true}");
+    Brdfd d({"--spool", spool.string(), "--once"}, "sleep:0", tmp / "log2");
+    EXPECT_EQ(d.wait(30), 1) << d.log();
+    EXPECT_TRUE(fs::exists(spool / "done" / "c.json"));
+    const auto record = nlohmann::json::parse(read_file(spool / "failed" / "bad.error.json"));
+    EXPECT_EQ(record["kind"], "input");
+    EXPECT_NE(d.log().find("job bad.json: failed after"), std::string::npos) << d.log();
+}
+
+TEST(Brdfd, SigtermLetsTheRunningJobFinishAndStopsIntake) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    submit(spool, "first.json", "{}", 10);
+    submit(spool, "second.json", "{}", 0);
+    Brdfd d({"--spool", spool.string(), "--poll", "0.05"}, "sleep:1.5", tmp / "log");
+    ASSERT_TRUE(wait_until([&] { return running_jobs(spool, 1); }, 20)) << d.log();
+    d.signal(SIGTERM);
+    EXPECT_TRUE(wait_until([&] { return status_of(spool)["state"] == "draining"; }, 5)) << d.log();
+    EXPECT_EQ(d.wait(30), 0) << d.log();
+    EXPECT_EQ(list_files(spool / "done"), std::vector<std::string>{"first.json"});
+    EXPECT_EQ(list_files(spool / "incoming"), std::vector<std::string>{"second.json"});
+    EXPECT_EQ(list_files(spool / "active"), std::vector<std::string>{});
+    EXPECT_EQ(status_of(spool)["state"], "stopped");
+}
+
+TEST(Brdfd, SecondSigintStillWaitsForTheRunningJob) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    submit(spool, "only.json");
+    Brdfd d({"--spool", spool.string(), "--poll", "0.05"}, "sleep:1.5", tmp / "log");
+    ASSERT_TRUE(wait_until([&] { return running_jobs(spool, 1); }, 20)) << d.log();
+    d.signal(SIGINT);
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    d.signal(SIGINT);
+    EXPECT_EQ(d.wait(30), 0) << d.log();
+    EXPECT_EQ(list_files(spool / "done"), std::vector<std::string>{"only.json"});
+    EXPECT_NE(d.log().find("already stopping"), std::string::npos) << d.log();
+}
+
+TEST(Brdfd, JobOfAKilledDaemonIsRequeuedByTheNextStart) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    submit(spool, "victim.json");
+    {
+        Brdfd d({"--spool", spool.string()}, "sleep:60", tmp / "log1");
+        ASSERT_TRUE(wait_until([&] { return running_jobs(spool, 1); }, 20)) << d.log();
+        d.signal(SIGKILL);
+        EXPECT_EQ(d.wait(10), 128 + SIGKILL);
+    }
+    EXPECT_TRUE(fs::exists(spool / "active" / "victim.json"));
+    Brdfd next({"--spool", spool.string(), "--once"}, "sleep:0", tmp / "log2");
+    EXPECT_EQ(next.wait(30), 0) << next.log();
+    EXPECT_EQ(list_files(spool / "done"), std::vector<std::string>{"victim.json"});
+    EXPECT_NE(next.log().find("requeued victim.json"), std::string::npos) << next.log();
+}
+
+// The real compute pipeline: whatever it grows into, a spec that is not JSON fails alone.
+TEST(Brdfd, RealRunnerFailsASpecThatIsNotJson) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    submit(spool, "broken.json", "{\"name\": ");
+    Brdfd d({"--spool", spool.string(), "--once"}, "", tmp / "log");
+    EXPECT_EQ(d.wait(60), 1) << d.log();
+    EXPECT_EQ(list_files(spool / "failed"), (std::vector<std::string>{"broken.error.json", "broken.json"}));
+    const auto record = nlohmann::json::parse(read_file(spool / "failed" / "broken.error.json"));
+    EXPECT_EQ(record["spec"], "broken.json");
+    EXPECT_EQ(record["kind"], "input");
+}
+
+} // namespace
+} // namespace brdf::test

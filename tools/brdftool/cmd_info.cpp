@@ -1,0 +1,193 @@
+// brdftool info FILE [--json]: what a table file holds (DESIGN.md, "Executables"): its format,
+// layout and size, its provenance (the EXR brdf.* attributes), how many cells hold data,
+// per-channel value statistics (formats::table_stats) and the directional albedo at a few incidence
+// angles (formats::directional_albedo). Human-readable by default; --json prints one JSON object
+// with the same content for scripts.
+
+#include "commands.h"
+
+#include <formats/exr/exr.h>
+#include <formats/merl/merl.h>
+#include <formats/table_io.h>
+
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+namespace brdf::tool {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct InfoFlags {
+    std::string file;
+    bool json = false;
+};
+
+/// Incidence angles of the albedo summary, degrees.
+constexpr std::array<double, 4> albedo_angles_deg{0.0, 30.0, 60.0, 80.0};
+
+struct AlbedoRow {
+    double theta_i_deg = 0.0;
+    formats::Rgb rho{};
+};
+
+/// "%.6g" of a value: enough digits to compare with a reference, short enough to read.
+std::string num(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
+/// The spec text for a terminal: as given when it fits on one line, else its first line and a
+/// count.
+std::string spec_summary(const std::string& spec) {
+    const std::size_t newline = spec.find('\n');
+    if (newline == std::string::npos && spec.size() <= 100) return spec;
+    std::string first = spec.substr(0, std::min<std::size_t>(newline, 60));
+    return cat(first, " ... (", spec.size(), " bytes; --json prints all of it)");
+}
+
+int run_info(const InfoFlags& f) {
+    const fs::path path = f.file;
+    const formats::TableFormat format = formats::table_format(path); // InputError on an extension
+    const formats::BrdfTable table = formats::read_table(path);      // IoError / FormatError
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (ec) throw IoError(cat(path.string(), ": cannot stat: ", ec.message()));
+
+    const formats::TableStats stats = formats::table_stats(table);
+    // Cells above the horizon without data: 0 for computed tables, the unmeasured cells of MERL's
+    // measurements (-1 there).
+    // Cells below the horizon with data: only foreign MERL files have them (writers drop them).
+    std::size_t missing_above = 0, data_below = 0;
+    for (std::size_t cell = 0; cell < formats::cells; ++cell) {
+        const bool below = formats::cell_below_horizon(cell), data = table.has_data(cell);
+        missing_above += !data && !below;
+        data_below += data && below;
+    }
+    std::vector<AlbedoRow> albedo;
+    for (double deg : albedo_angles_deg)
+        albedo.push_back({deg, formats::directional_albedo(table, deg * formats::pi / 180.0)});
+
+    const bool is_exr = format == formats::TableFormat::Exr;
+    if (f.json) {
+        nlohmann::ordered_json out;
+        out["file"] = path.string();
+        out["format"] = formats::to_string(format);
+        out["file_size_bytes"] = size;
+        out["layout"] = formats::exr_layout;
+        out["dims"] = {{"theta_h", formats::theta_h_bins},
+                       {"theta_d", formats::theta_d_bins},
+                       {"phi_d", formats::phi_d_bins}};
+        out["cells"] = formats::cells;
+        out["units"] = "1/sr";
+        if (!is_exr) out["merl_scales"] = formats::merl_scales;
+        nlohmann::ordered_json provenance = nlohmann::ordered_json::object();
+        if (is_exr) {
+            if (!table.spec.empty()) provenance["brdf.spec"] = table.spec;
+            if (!table.generator.empty()) provenance["brdf.generator"] = table.generator;
+            provenance["brdf.colorspace"] = table.colorspace;
+        }
+        out["provenance"] = provenance;
+        out["colorspace"] = table.colorspace;
+        out["data_cells"] = stats.data_cells;
+        out["below_horizon_cells"] = stats.below_horizon_cells;
+        out["no_data_above_horizon_cells"] = missing_above;
+        out["data_below_horizon_cells"] = data_below;
+        nlohmann::ordered_json channels = nlohmann::ordered_json::object();
+        for (int c = 0; c < 3; ++c)
+            channels[formats::channel_name(c)] = {{"min", stats.channels[c].min},
+                                                  {"max", stats.channels[c].max},
+                                                  {"mean", stats.channels[c].mean}};
+        out["channels"] = channels;
+        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+        for (const AlbedoRow& row : albedo)
+            rows.push_back({{"theta_i_deg", row.theta_i_deg}, {"rgb", row.rho}});
+        out["directional_albedo"] = rows;
+        std::cout << out.dump(2) << '\n';
+        return 0;
+    }
+
+    std::ostringstream os;
+    os << path.string() << '\n';
+    os << "  format:      " << formats::to_string(format) << ", " << size << " bytes\n";
+    os << "  layout:      " << formats::exr_layout << " (theta_h " << formats::theta_h_bins
+       << " x theta_d " << formats::theta_d_bins << " x phi_d " << formats::phi_d_bins << " = "
+       << formats::cells << " cells), BRDF in 1/sr";
+    if (!is_exr)
+        os << " (stored / scale " << num(formats::merl_scales[0]) << ' '
+           << num(formats::merl_scales[1]) << ' ' << num(formats::merl_scales[2]) << ')';
+    os << '\n';
+    if (is_exr) {
+        os << "  colorspace:  " << table.colorspace << '\n';
+        os << "  generator:   " << (table.generator.empty() ? "(absent)" : table.generator) << '\n';
+        os << "  spec:        " << (table.spec.empty() ? "(absent)" : spec_summary(table.spec))
+           << '\n';
+    } else {
+        os << "  provenance:  none (a MERL .binary file has no metadata); colour space assumed "
+           << table.colorspace << '\n';
+    }
+    os << "  cells:       " << stats.data_cells << " with data, " << stats.below_horizon_cells
+       << " below the horizon, " << missing_above << " above the horizon without data\n";
+    if (data_below > 0)
+        os << "               (" << data_below
+           << " cells below the horizon hold data; converting drops it)\n";
+    os << "  values (1/sr, over cells with data):\n";
+    char line[128];
+    std::snprintf(line, sizeof line, "    %-7s %12s %12s %12s\n", "channel", "min", "max", "mean");
+    os << line;
+    for (int c = 0; c < 3; ++c) {
+        std::snprintf(line, sizeof line, "    %-7s %12.6g %12.6g %12.6g\n",
+                      formats::channel_name(c), stats.channels[c].min, stats.channels[c].max,
+                      stats.channels[c].mean);
+        os << line;
+    }
+    os << "  directional albedo (table lookup):\n";
+    std::snprintf(line, sizeof line, "    %-9s %12s %12s %12s\n", "theta_i", "red", "green",
+                  "blue");
+    os << line;
+    for (const AlbedoRow& row : albedo) {
+        std::snprintf(line, sizeof line, "    %5.0f deg %12.6g %12.6g %12.6g\n", row.theta_i_deg,
+                      row.rho[0], row.rho[1], row.rho[2]);
+        os << line;
+    }
+    std::cout << os.str();
+    return 0;
+}
+
+} // namespace
+
+Subcommand add_info_command(CLI::App& root) {
+    auto flags = std::make_shared<InfoFlags>();
+    Subcommand cmd;
+    cmd.app = root.add_subcommand(
+        "info", "Format, layout, provenance and value statistics of a BRDF table");
+    CLI::App& app = *cmd.app;
+    app.add_option("FILE", flags->file, "table (.binary or .exr)")->required();
+    app.add_flag("--json", flags->json, "print one JSON object instead of text");
+    app.footer("Prints the format, file size, layout (90 x 90 x 180 half/difference cells), "
+               "provenance (the\n"
+               ".exr attributes brdf.generator, brdf.spec, brdf.colorspace; a .binary file has "
+               "none), the\n"
+               "cells with data and below the horizon, min / max / mean per channel (1/sr, "
+               "unweighted over\n"
+               "cells with data) and the directional albedo at theta_i = 0, 30, 60, 80 degrees.");
+    cmd.run = [flags]() -> int { return run_info(*flags); };
+    return cmd;
+}
+
+} // namespace brdf::tool
