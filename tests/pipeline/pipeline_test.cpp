@@ -155,3 +155,26 @@ TEST(PipelineSpectral, SelectedWavelengthsMeetTheTolerance) {
 
 } // namespace
 } // namespace brdf::test
+
+namespace brdf::test {
+namespace {
+
+TEST(PipelineGamut, SaturatedYellowIsBroughtIntoGamutKeepingLuminance) {
+    const char* text = R"({"name": "cds", "binder": {"material": "pmma"}, "accuracy": "draft",
+        "pigments": [{"material": "cds", "volume_fraction": 0.1,
+                      "size": {"distribution": "power_law", "r_eff_um": 0.2, "v_eff": 0.2}}]})";
+    const auto spec = material::parse_specs_text(text, "cds.json").at(0);
+    const service::SolvedMaterial m = service::solve_material(spec, service::Device::Cpu);
+    EXPECT_LT(m.gamut_scale, 1.0); // CdS is more saturated than the Rec.709 yellow
+    for (double deg : {0.0, 30.0, 60.0, 80.0}) {
+        const double t = deg * std::numbers::pi / 180.0;
+        const auto a = m.albedo(t), r = m.mirror(t);
+        for (int c = 0; c < 3; ++c) {
+            EXPECT_GE(a[c] + r[c], -1e-12) << deg;
+            EXPECT_LE(a[c] + r[c], 1.0 + 1e-9) << deg;
+        }
+    }
+}
+
+} // namespace
+} // namespace brdf::test

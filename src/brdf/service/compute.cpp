@@ -15,6 +15,7 @@
 #include <atomic>
 #include <chrono>
 #include <fstream>
+#include <future>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -46,7 +47,7 @@ bool already_done(const material::MaterialSpec& spec, const fs::path& dir, const
     const auto j = nlohmann::json::parse(in, nullptr, false);
     if (j.is_discarded() || j.value("spec_hash", "") != spec.hash) return false;
     return std::all_of(formats.begin(), formats.end(),
-                       [&](const std::string& f) { return fs::exists(output_path(dir, spec.name, f)); });
+                       [&](const std::string& f) { std::error_code ec; return fs::is_regular_file(output_path(dir, spec.name, f), ec); });
 }
 
 MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOptions& options) {
@@ -66,12 +67,24 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     table.generator = std::string(generator_string);
     solved.seconds.table = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     t = std::chrono::steady_clock::now();
+    // The report is the "up to date" stamp: drop an old one before the tables are replaced, so that a
+    // kill between two table writes can never leave a report whose spec_hash vouches for tables of
+    // another spec (already_done would then skip a job whose outputs are mixed).
+    {
+        std::error_code ec;
+        fs::remove(options.output_dir / (spec.name + ".report.json"), ec);
+    }
+    // The writers are independent (and the EXR one spends its time compressing): one thread each.
+    std::vector<std::future<void>> writes;
     for (const std::string& f : formats) {
         const fs::path path = output_path(options.output_dir, spec.name, f);
-        if (f == "merl") formats::write_merl(path, table);
-        else formats::write_exr(path, table);
+        writes.push_back(std::async(std::launch::async, [path, f, &table] {
+            if (f == "merl") formats::write_merl(path, table);
+            else formats::write_exr(path, table);
+        }));
         outcome.outputs.push_back(path);
     }
+    for (auto& w : writes) w.get(); // rethrows a writer's error
     solved.seconds.write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     const fs::path report = options.output_dir / (spec.name + ".report.json");
     write_text_atomically(report, make_report(solved, formats).dump(1) + "\n");

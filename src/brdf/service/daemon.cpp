@@ -18,6 +18,7 @@
 #include <mutex>
 #include <optional>
 #include <poll.h>
+#include <sys/inotify.h>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -34,6 +35,7 @@ constexpr std::chrono::seconds orphan_scan_interval{30};
 
 constexpr char wake_stop = 's';     // options.stop was requested
 constexpr char wake_finished = 'x'; // the last worker has ended
+constexpr char wake_incoming = 'i'; // inotify: something arrived in incoming/
 
 /// A pipe the control thread blocks on; signal handlers, the stop callback and the last worker write
 /// one byte each. The write end is non-blocking so a signal handler can never hang on a full pipe.
@@ -53,17 +55,22 @@ public:
 
     int write_fd() const { return m_fd[1]; }
     void notify(char c) const { [[maybe_unused]] const ssize_t k = ::write(m_fd[1], &c, 1); }
-    char wait() const {
+    /// The next byte written into the pipe, or wake_incoming when `watch_fd` (an inotify descriptor,
+    /// or -1) becomes readable first; the caller drains `watch_fd`.
+    char wait(int watch_fd = -1) const {
         // poll with a timeout rather than a blocking read: ThreadSanitizer delivers a signal to a
         // thread only when it leaves a call, and a read that never returns would never see it.
         for (;;) {
-            pollfd fd{m_fd[0], POLLIN, 0};
-            const int n = ::poll(&fd, 1, 250);
+            pollfd fds[2] = {{m_fd[0], POLLIN, 0}, {watch_fd, POLLIN, 0}};
+            const int n = ::poll(fds, watch_fd >= 0 ? 2 : 1, 250);
             if (n < 0 && errno != EINTR)
                 throw IoError(cat("brdfd: cannot wait on the wake pipe: ", std::strerror(errno)));
             if (n <= 0) continue;
-            char c = 0;
-            if (::read(m_fd[0], &c, 1) == 1) return c;
+            if (fds[0].revents & POLLIN) {
+                char c = 0;
+                if (::read(m_fd[0], &c, 1) == 1) return c;
+            }
+            if (watch_fd >= 0 && (fds[1].revents & (POLLIN | POLLERR | POLLHUP))) return wake_incoming;
         }
     }
 
@@ -111,6 +118,54 @@ private:
     struct sigaction m_old_int{};
 };
 
+/// inotify on incoming/: a file renamed in (IN_MOVED_TO) or written there and closed (IN_CLOSE_WRITE)
+/// makes the descriptor readable. Not available (inotify_init1 or the watch fails: no inotify, out of
+/// watches): fd() is -1 and the daemon relies on polling alone. On network file systems the watch
+/// succeeds but sees only this host's changes; polling covers the rest.
+class IncomingWatch {
+public:
+    IncomingWatch(const std::filesystem::path& dir, bool enabled) {
+        if (!enabled) return;
+        m_fd = ::inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+        if (m_fd < 0) {
+            log::warn("brdfd: inotify unavailable (", std::strerror(errno), "); polling ", dir.string());
+            return;
+        }
+        if (::inotify_add_watch(m_fd, dir.c_str(), IN_MOVED_TO | IN_CLOSE_WRITE | IN_ONLYDIR) < 0) {
+            log::warn("brdfd: cannot watch ", dir.string(), " with inotify (", std::strerror(errno),
+                      "); polling it");
+            ::close(m_fd);
+            m_fd = -1;
+        }
+    }
+    ~IncomingWatch() {
+        if (m_fd >= 0) ::close(m_fd);
+    }
+    IncomingWatch(const IncomingWatch&) = delete;
+    IncomingWatch& operator=(const IncomingWatch&) = delete;
+
+    int fd() const { return m_fd; }
+    /// Reads every pending event: one wake-up stands for all of them (workers rescan incoming/).
+    /// Stops watching if the descriptor fails (the queue overflowed is not a failure: just a wake).
+    void drain() {
+        alignas(inotify_event) char buf[16384];
+        for (;;) {
+            const ssize_t k = ::read(m_fd, buf, sizeof buf);
+            if (k > 0) continue;
+            if (k < 0 && errno == EINTR) continue;
+            if (k < 0 && errno != EAGAIN) {
+                log::warn("brdfd: inotify read failed (", std::strerror(errno), "); polling only");
+                ::close(m_fd);
+                m_fd = -1;
+            }
+            return;
+        }
+    }
+
+private:
+    int m_fd = -1;
+};
+
 const char* signal_name(char c) {
     if (c == SIGTERM) return "SIGTERM";
     if (c == SIGINT) return "SIGINT";
@@ -120,14 +175,18 @@ const char* signal_name(char c) {
 class Daemon {
 public:
     Daemon(const DaemonOptions& options, const JobRunner& runner)
-        : m_options(options), m_runner(runner), m_spool(options.spool), m_lease(m_spool),
+        : m_options(options), m_runner(runner), m_spool(options.spool),
+          m_start_time(std::filesystem::file_time_type::clock::now()), m_lease(m_spool),
           m_started(iso8601_now()), m_poll(std::chrono::duration_cast<Clock::duration>(
                                         std::chrono::duration<double>(options.poll_seconds))) {}
 
     int run() {
         for (const std::string& name : m_spool.requeue_orphans())
             log::info("brdfd: requeued ", name, " (left in active/ by a daemon that is gone)");
+        remove_stale_temporaries();
         m_last_orphan_scan = Clock::now();
+        // Before the workers start, so nothing that arrives after their first look is missed.
+        IncomingWatch watch(m_spool.incoming(), m_options.watch_incoming);
 
         std::optional<SignalRoute> signals;
         if (m_options.handle_signals) signals.emplace(m_wake.write_fd());
@@ -150,8 +209,16 @@ public:
         }
 
         for (;;) {
-            const char c = m_wake.wait();
+            const char c = m_wake.wait(watch.fd());
             if (c == wake_finished) break;
+            if (c == wake_incoming) {
+                watch.drain();
+                // Under the mutex: a worker is either before its look into incoming/ (and will see
+                // the new file) or already waiting on m_cv (and is woken). No wake-up is lost.
+                std::lock_guard lock(m_mutex);
+                m_cv.notify_all();
+                continue;
+            }
             request_stop(c);
         }
         for (std::thread& t : workers) t.join();
@@ -220,6 +287,18 @@ private:
         m_last_orphan_scan = Clock::now();
         for (const std::string& name : m_spool.requeue_orphans())
             log::info("brdfd: requeued ", name, " (left in active/ by a daemon that is gone)");
+        remove_stale_temporaries();
+    }
+
+    /// Temporaries of writers killed mid-write (a SIGKILLed daemon's table or status file): see
+    /// Spool::remove_stale_temporaries for why this never touches a live writer's file.
+    void remove_stale_temporaries() {
+        try {
+            for (const std::filesystem::path& p : m_spool.remove_stale_temporaries(m_start_time, m_lease))
+                log::info("brdfd: removed ", p.string(), " (temporary of a writer that is gone)");
+        } catch (const std::exception& e) {
+            log::warn("brdfd: cleaning stale temporaries: ", e.what());
+        }
     }
 
     /// Claims the oldest job this daemon can get; none when incoming/ is empty or others won them all.
@@ -289,6 +368,7 @@ private:
     const DaemonOptions& m_options;
     const JobRunner& m_runner;
     Spool m_spool;
+    const std::filesystem::file_time_type m_start_time; ///< before the lease: older files predate us
     DaemonLease m_lease;
     const std::string m_started;
     const Clock::duration m_poll;

@@ -19,6 +19,10 @@ struct DaemonOptions {
     int workers = 1;               ///< concurrent jobs, >= 1
     bool once = false;             ///< drain the spool and return instead of serving forever
     double poll_seconds = 0.5;     ///< how often idle workers look into incoming/, > 0
+    /// Wake idle workers through inotify (IN_MOVED_TO | IN_CLOSE_WRITE on incoming/) as soon as a
+    /// file arrives; polling every `poll_seconds` stays on as the fallback (inotify unavailable, or a
+    /// network file system where it does not see other hosts' writes).
+    bool watch_incoming = true;
     /// Turn SIGTERM/SIGINT into a graceful stop while run_daemon runs (previous handlers are restored
     /// afterwards). Only one run_daemon per process may do this at a time; daemons embedded in tests
     /// turn it off and use `stop` instead.

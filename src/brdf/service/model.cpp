@@ -200,6 +200,16 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
         weights = pick.weights;
         out.wavelengths_interpolated = all.size() - pick.solved.size();
     }
+    // The spec's limit on the phase function's Legendre series (material::SpecLimits): the order
+    // matrices and the table's Fourier sums grow with it. Known only now, from the optics.
+    for (const SpectralOptics& o : optics)
+        if (o.medium.beta.size() > spec.limits.max_legendre_terms)
+            throw LimitError(cat(spec.source.empty() ? spec.name : spec.source,
+                                 ": the phase function's Legendre series has ", o.medium.beta.size(),
+                                 " terms", o.wavelength_nm > 0.0 ? cat(" at ", o.wavelength_nm, " nm") : "",
+                                 ", more than the limit of ", spec.limits.max_legendre_terms,
+                                 "; to override, set \"limits\": {\"max_legendre_terms\": ",
+                                 o.medium.beta.size(), "} in the spec"));
     out.seconds.optics = seconds_since(t0);
 
     // 2. Every order of every sample in one batch.
@@ -230,7 +240,57 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
                                      rte::Reflection(std::move(setups[k]), std::move(mine))});
     }
     out.seconds.solve = seconds_since(t0);
+    if (!spec.medium) fit_into_gamut(out);
     return out;
+}
+
+void fit_into_gamut(SolvedMaterial& m) {
+    // A saturated pigment (CdS yellow, vermilion) reflects a colour outside the Rec.709 gamut: one
+    // channel's albedo goes negative, another above 1. Renderers cannot use either, and clamping
+    // per cell would break reciprocity and smoothness. Instead every colour weight is moved towards
+    // its luminance by the same factor s (w' = Y + s (w - Y)): a linear map, so the table stays
+    // exact in luminance and keeps its angular shape, with s as large as keeps the total
+    // reflectance (diffuse + mirror) in [0, 1] at the report's incidence angles.
+    const Rgb luma{0.2126, 0.7152, 0.0722};
+    std::vector<std::array<double, 4>> reflectance; // per sample: at 0, 30, 60, 80 degrees
+    for (const Sample& s : m.samples) {
+        std::array<double, 4> r{};
+        const double angles[4] = {0.0, 30.0, 60.0, 80.0};
+        for (int a = 0; a < 4; ++a) {
+            const double mu = std::cos(angles[a] * std::numbers::pi / 180.0);
+            r[a] = s.reflection.albedo(mu) + s.reflection.mirror(mu);
+        }
+        reflectance.push_back(r);
+    }
+    const auto channel = [&](double scale, int a, int c) {
+        double v = 0.0;
+        for (std::size_t k = 0; k < m.samples.size(); ++k) {
+            const Rgb& w = m.samples[k].weight;
+            const double y = luma[0] * w[0] + luma[1] * w[1] + luma[2] * w[2];
+            v += (y + scale * (w[c] - y)) * reflectance[k][a];
+        }
+        return v;
+    };
+    const auto fits = [&](double scale) {
+        for (int a = 0; a < 4; ++a)
+            for (int c = 0; c < 3; ++c) {
+                const double v = channel(scale, a, c);
+                if (v < 0.0 || v > 1.0 + 1e-12) return false;
+            }
+        return true;
+    };
+    if (fits(1.0)) return;
+    double lo = 0.0, hi = 1.0; // s = 0 is grey: in gamut whenever the luminance is
+    for (int it = 0; it < 50; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        (fits(mid) ? lo : hi) = mid;
+    }
+    for (Sample& s : m.samples) {
+        const double y = luma[0] * s.weight[0] + luma[1] * s.weight[1] + luma[2] * s.weight[2];
+        for (double& w : s.weight) w = y + lo * (w - y);
+    }
+    m.gamut_scale = lo;
+    log::info(m.spec.name, ": colour outside the Rec.709 gamut; chroma scaled by ", lo, " (luminance kept)");
 }
 
 Rgb SolvedMaterial::brdf(double theta_i, double theta_o, double phi) const {

@@ -47,6 +47,7 @@ struct SolvedMaterial {
     std::vector<Sample> samples;
     std::string device; ///< "opencl: DEVICE NAME" or "cpu"
     std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
+    double gamut_scale = 1.0; ///< chroma factor applied by fit_into_gamut (1: colour already in gamut)
     StageSeconds seconds;
 
     /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, DESIGN.md conventions).
@@ -66,6 +67,10 @@ struct SpectralSelection {
 };
 SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, const std::vector<Rgb>& weights,
                                      double tolerance);
+
+/// Brings an out-of-gamut colour into linear Rec.709 by scaling every colour weight's chroma about
+/// its luminance (same factor for all wavelengths: the map stays linear); sets gamut_scale.
+void fit_into_gamut(SolvedMaterial& material);
 
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).

@@ -4,6 +4,7 @@
 #include <brdf/core/log.h>
 #include <brdf/core/version.h>
 
+#include <atomic>
 #include <cmath>
 #include <cerrno>
 #include <cstdio>
@@ -72,6 +73,7 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
                    "(docs/quadrature-study.md); tables add their binning error"}}},
         {"wavelengths", samples},
         {"wavelengths_interpolated", m.wavelengths_interpolated},
+        {"gamut_scale", m.gamut_scale},
         {"directional_albedo", albedo},
         {"seconds", {{"optics", m.seconds.optics}, {"solve", m.seconds.solve}, {"table", m.seconds.table},
                      {"write", m.seconds.write}}},
@@ -80,7 +82,11 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
 }
 
 void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-    const std::filesystem::path tmp = path.parent_path() / cat(".", path.filename().string(), ".", getpid(), ".tmp");
+    // Unique per call, not only per process: two daemon workers may write the same report at once
+    // (identical specs submitted together), and a shared temporary would make one rename fail.
+    static std::atomic<unsigned long> counter{0};
+    const std::filesystem::path tmp = path.parent_path() / cat(".", path.filename().string(), ".", getpid(), ".",
+                                                               counter.fetch_add(1), ".tmp");
     {
         std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
         if (!out) throw IoError(cat(path.string(), ": cannot write (", std::strerror(errno), ")"));

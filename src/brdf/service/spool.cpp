@@ -12,6 +12,7 @@
 #include <cstring>
 #include <ctime>
 #include <fcntl.h>
+#include <csignal>
 #include <random>
 #include <sys/file.h>
 #include <unistd.h>
@@ -292,6 +293,100 @@ std::vector<std::string> Spool::requeue_orphans() {
         if (!daemon_alive(file.substr(0, file.size() - 5))) fs::remove(it->path(), e);
     }
     return requeued;
+}
+
+bool Spool::is_temporary_name(std::string_view name) {
+    if (name.size() < 2 || name.front() != '.') return false;
+    std::string_view rest = name.substr(1);
+    while (!rest.empty()) {
+        const std::size_t dot = rest.find('.');
+        if (rest.substr(0, dot) == "tmp") return true;
+        if (dot == std::string_view::npos) break;
+        rest.remove_prefix(dot + 1);
+    }
+    return false;
+}
+
+namespace {
+
+std::vector<std::string_view> split_dots(std::string_view s) {
+    std::vector<std::string_view> parts;
+    for (;;) {
+        const std::size_t dot = s.find('.');
+        parts.push_back(s.substr(0, dot));
+        if (dot == std::string_view::npos) return parts;
+        s.remove_prefix(dot + 1);
+    }
+}
+
+bool all_digits(std::string_view s) {
+    return !s.empty() && s.size() <= 9 &&
+           std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+/// The writer's pid in a temporary's name, or 0 when the name does not carry one. Names:
+/// ".T.tmp.PID.N.STAMP" (formats' AtomicFile), ".T.PID.tmp" (write_text_atomically) and
+/// ".T.PID.N.tmp" (write_file_atomic), where T is the target's name.
+pid_t temporary_writer_pid(std::string_view name) {
+    const std::vector<std::string_view> parts = split_dots(name.substr(1));
+    const std::size_t n = parts.size();
+    if (n >= 2 && parts[n - 1] == "tmp") {
+        // The first of the (at most two) numbers right before the final "tmp".
+        std::size_t first = n - 1;
+        while (first > 0 && n - 1 - first < 2 && all_digits(parts[first - 1])) --first;
+        return first < n - 1 ? static_cast<pid_t>(std::stol(std::string(parts[first]))) : 0;
+    }
+    for (std::size_t i = n; i-- > 0;)
+        if (parts[i] == "tmp")
+            return i + 1 < n && all_digits(parts[i + 1])
+                       ? static_cast<pid_t>(std::stol(std::string(parts[i + 1])))
+                       : 0;
+    return 0;
+}
+
+bool process_alive(pid_t pid) { return pid > 0 && (::kill(pid, 0) == 0 || errno == EPERM); }
+
+bool flocked_by_someone(const fs::path& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+    if (fd < 0) return false;
+    const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+    ::close(fd);
+    return held;
+}
+
+} // namespace
+
+std::vector<fs::path> Spool::remove_stale_temporaries(fs::file_time_type started,
+                                                      const DaemonLease& self,
+                                                      std::chrono::seconds stale_after) {
+    FileLock lock(m_root / ".spool.lock", LOCK_EX);
+    bool others_alive = false;
+    std::error_code ec;
+    for (fs::directory_iterator it(daemons(), ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string file = it->path().filename().string();
+        if (file.front() == '.' || !ends_with(file, ".lock")) continue;
+        const std::string id = file.substr(0, file.size() - 5);
+        if (id != self.id() && daemon_alive(id)) others_alive = true;
+    }
+    const fs::file_time_type now = fs::file_time_type::clock::now();
+    std::vector<fs::path> removed;
+    for (const fs::path& dir : {m_root, active(), results(), done(), failed(), daemons()}) {
+        for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+            const std::string file = it->path().filename().string();
+            if (!is_temporary_name(file)) continue;
+            std::error_code e;
+            if (!it->is_regular_file(e) || it->is_symlink(e)) continue;
+            const fs::file_time_type mtime = it->last_write_time(e);
+            if (e) continue;
+            const bool old_enough = (!others_alive && mtime < started) || now - mtime > stale_after;
+            if (!old_enough) continue;
+            const pid_t pid = temporary_writer_pid(file);
+            if (pid != ::getpid() && process_alive(pid)) continue;
+            if (flocked_by_someone(it->path())) continue;
+            if (fs::remove(it->path(), e)) removed.push_back(it->path());
+        }
+    }
+    return removed;
 }
 
 // --- DaemonLease ---------------------------------------------------------------------------------

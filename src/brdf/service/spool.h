@@ -11,6 +11,7 @@
 //   status.json          the daemon's state (written by the daemon, not by this class)
 //   .spool.lock          flock: claims take it shared, the orphan scan exclusive
 
+#include <chrono>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -68,6 +69,25 @@ public:
 
     /// Whether daemon ID holds its lock, i.e. its process is alive.
     bool daemon_alive(const std::string& id) const;
+
+    /// Whether a file name is a temporary of one of the spool's writers: hidden, with a "tmp"
+    /// component (".NAME.tmp.PID.N.STAMP" of the table writers, ".NAME.PID.tmp" of the report writer,
+    /// ".NAME.PID.N.tmp" of write_file_atomic, ".ID.lock.tmp" of a starting daemon).
+    static bool is_temporary_name(std::string_view name);
+    /// Removes temporaries that a killed writer left in the spool (results/, active/, done/,
+    /// failed/, daemons/ and the root; never incoming/, where users stage their own files). A file
+    /// is removed only when all of these hold, so a live writer's file is never touched:
+    ///  - its name is a temporary (is_temporary_name) and it is a regular file;
+    ///  - it was last modified before `started` (this daemon's start), and no daemon other than
+    ///    `self` holds a lease on the spool: every writer older than `started` belonged to a
+    ///    process that is gone; or else it is older than `stale_after` (no writer keeps a
+    ///    temporary open that long: tables are computed first and written in seconds);
+    ///  - no number in its name is the pid of a live process on this host (other than ours: our
+    ///    own temporaries are younger than `started`), and it is not flock-ed by anyone.
+    /// Runs under the exclusive spool lock. Returns the removed paths.
+    std::vector<std::filesystem::path> remove_stale_temporaries(
+        std::filesystem::file_time_type started, const DaemonLease& self,
+        std::chrono::seconds stale_after = std::chrono::hours(24));
 
 private:
     std::filesystem::path owner_file(const std::string& name) const;
