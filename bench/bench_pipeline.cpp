@@ -3,6 +3,8 @@
 // Run: build/bin/bench_pipeline [--benchmark_filter=...]
 
 #include <brdf/material/spec.h>
+#include <brdf/core/error.h>
+#include <brdf/service/cl_table_fill.h>
 #include <brdf/service/model.h>
 #include <brdf/service/table_fill.h>
 
@@ -41,6 +43,22 @@ void BM_FillSeed(benchmark::State& state) {
     state.counters["samples"] = in.samples;
 }
 BENCHMARK(BM_FillSeed)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+// The same fill on the OpenCL device (one launch, one work-item per cell; includes the transfers).
+void BM_FillSeedOpenCL(benchmark::State& state) {
+    const service::SolvedMaterial m = service::solve_material(seed(), service::Device::Cpu);
+    const service::FillInputs in = service::prepare_fill(m);
+    try {
+        benchmark::DoNotOptimize(service::fill_table_opencl(in)); // build the program outside the timing
+    } catch (const Error& e) {
+        state.SkipWithError(e.what());
+        return;
+    }
+    for (auto _ : state) benchmark::DoNotOptimize(service::fill_table_opencl(in));
+    state.counters["orders"] = in.orders;
+    state.counters["samples"] = in.samples;
+}
+BENCHMARK(BM_FillSeedOpenCL)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_PrepareFillSeed(benchmark::State& state) {
     const service::SolvedMaterial m = service::solve_material(seed(), service::Device::Cpu);

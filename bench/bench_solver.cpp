@@ -4,8 +4,9 @@
 //                                    32 streams, setup_reflection with default ReflectionSettings
 //                                    otherwise (delta-M, order tolerance 1e-5), no interface.
 //                                    method 0 fixed point, 1 doubling, 2 fast (as rte::Method);
-//                                    backend 0 the C++ reference (one thread), 1 OpenCL (one launch
-//                                    for all orders); omega index 0, 1, 2 = 0.9, 0.99999, 1.
+//                                    backend 0 the C++ reference (one thread), 1 OpenCL cooperative
+//                                    kernel, 2 OpenCL serial kernel (one launch for all orders,
+//                                    rte::ClSolverKernel); omega index 0, 1, 2 = 0.9, 0.99999, 1.
 //                                    Counters: orders, total iterations over the orders.
 // The fixed point at omega -> 1 runs to SolveControl's default cap (100000 sweeps) at m = 0: it is the
 // baseline the doubling replaces, and slow on purpose.
@@ -37,8 +38,10 @@ std::vector<OrderProblem> medium_problems(double omega) {
 void BM_Medium(benchmark::State& state) {
     const auto method = static_cast<Method>(state.range(0));
     const bool opencl = state.range(1) != 0;
+    const ClSolverKernel kernel = state.range(1) == 2 ? ClSolverKernel::Serial : ClSolverKernel::Cooperative;
     const double omega = omegas[state.range(2)];
-    state.SetLabel(std::string(to_string(method)) + (opencl ? " opencl" : " cpu") + " omega " +
+    state.SetLabel(std::string(to_string(method)) +
+                   (opencl ? " opencl " + std::string(to_string(kernel)) : std::string(" cpu")) + " omega " +
                    std::to_string(omega));
     if (opencl && !brdf::cl::available()) {
         state.SkipWithError("no OpenCL device with fp64");
@@ -46,11 +49,11 @@ void BM_Medium(benchmark::State& state) {
     }
     const std::vector<OrderProblem> problems = medium_problems(omega);
     const SolveControl control;
-    if (opencl) solve_orders_opencl(problems, method, control); // build the program outside the timing
+    if (opencl) solve_orders_opencl(problems, method, control, kernel); // build the program outside the timing
     long iterations = 0;
     for (auto _ : state) {
         const std::vector<OrderSolution> s =
-            opencl ? solve_orders_opencl(problems, method, control) : solve_orders_cpu(problems, method, control);
+            opencl ? solve_orders_opencl(problems, method, control, kernel) : solve_orders_cpu(problems, method, control);
         iterations = 0;
         for (const OrderSolution& o : s) iterations += o.iterations;
         benchmark::DoNotOptimize(s.data());
@@ -59,7 +62,7 @@ void BM_Medium(benchmark::State& state) {
     state.counters["iterations"] = static_cast<double>(iterations);
 }
 BENCHMARK(BM_Medium)
-    ->ArgsProduct({{0, 1, 2}, {0, 1}, {0, 1, 2}})
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 2}, {0, 1, 2}})
     ->ArgNames({"method", "opencl", "omega"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);

@@ -42,6 +42,7 @@ void compare_tables(const formats::BrdfTable& device, const formats::BrdfTable& 
     std::size_t horizon_mismatch = 0, value_mismatch = 0, below = 0;
     double worst_rel = 0.0;
     std::size_t worst_cell = 0;
+    double worst_value = 0.0;
     for (std::size_t cell = 0; cell < formats::cells; ++cell) {
         const bool no_data = formats::cell_below_horizon(cell);
         below += no_data;
@@ -57,7 +58,7 @@ void compare_tables(const formats::BrdfTable& device, const formats::BrdfTable& 
             }
             const double diff = std::abs(d - r);
             const double rel = r > 0.0 ? diff / r : diff;
-            if (rel > worst_rel) worst_rel = rel, worst_cell = cell;
+            if (rel > worst_rel) worst_rel = rel, worst_cell = cell, worst_value = r;
             if (diff > std::max(1e-12 * std::abs(r), 1e-15)) {
                 if (value_mismatch < 5)
                     ADD_FAILURE() << "cell " << cell << " channel " << c << ": device " << d << ", reference " << r;
@@ -69,8 +70,8 @@ void compare_tables(const formats::BrdfTable& device, const formats::BrdfTable& 
     EXPECT_EQ(horizon_mismatch, 0u);
     EXPECT_EQ(value_mismatch, 0u);
     const auto ix = formats::cell_indices(worst_cell);
-    std::printf("worst relative difference %.3g at cell %zu (%d, %d, %d)\n", worst_rel, worst_cell, ix.theta_h,
-                ix.theta_d, ix.phi_d);
+    std::printf("worst relative difference %.3g at cell %zu (%d, %d, %d), reference value %.6g\n", worst_rel,
+                worst_cell, ix.theta_h, ix.theta_d, ix.phi_d, worst_value);
 }
 
 class ClTableFill : public ::testing::Test {

@@ -306,9 +306,7 @@ TEST(TableTools, BadOperandsGiveDocumentedStatusAndNameTheFile) {
         {{"info", p("missing.binary")}, 7, "missing.binary: cannot open"},
         {{"info", p("folder.exr")}, 7, "folder.exr: is a directory"},
         {{"diff", p("short.binary"), p("short.binary")}, 4, "short.binary: truncated"},
-        {{"diff", p("paint.json"), p("short.binary")},
-         3,
-         "paint.json: diff: comparing a table against a material spec needs the compute pipeline"},
+        {{"diff", p("paint.json"), p("short.binary"), "--device", "cpu"}, 3, "paint.json: "},
         {{"diff", p("missing.exr"), p("short.binary")}, 7, "missing.exr: cannot open"},
         {{"convert", p("text.exr"), p("out.binary")}, 4, "text.exr: "},
     };
@@ -320,6 +318,20 @@ TEST(TableTools, BadOperandsGiveDocumentedStatusAndNameTheFile) {
         EXPECT_TRUE(r.out.empty()) << r.out;
     }
     EXPECT_FALSE(fs::exists(dir / "out.binary"));
+}
+
+TEST(TableTools, DiffOfATableAgainstItsSpecIsZero) {
+    TempDir dir;
+    write_file(dir / "spec.json", R"({"name": "m", "medium": {"albedo": 0.7, "phase": "rayleigh"},
+                                      "accuracy": "draft", "outputs": ["merl"]})");
+    const ProcessResult c = run_tool("brdftool", {"compute", (dir / "spec.json").string(), "-o",
+                                                  (dir / "out").string(), "--device", "cpu"});
+    ASSERT_EQ(c.status, 0) << c.err;
+    const ProcessResult d = run_tool("brdftool", {"diff", (dir / "out/m.binary").string(),
+                                                  (dir / "spec.json").string(), "--device", "cpu", "--json"});
+    ASSERT_EQ(d.status, 0) << d.err;
+    const auto j = nlohmann::json::parse(d.out);
+    for (const auto& ch : j["channels"]) EXPECT_LT(ch["max"].get<double>(), 1e-12) << d.out;
 }
 
 TEST(TableTools, HelpDescribesTheCommands) {

@@ -3,12 +3,14 @@
 // both), with the cell of each maximum given as the bin-centre angles (theta_h, theta_d, phi_d) in
 // degrees and both values there (DESIGN.md, "Executables").
 //
-// Operands are loaded by load_operand(), the one place that knows what an operand may be. Today
-// that is a table file (.binary, .exr). DESIGN.md also allows a material spec (.json) as an
-// operand, compared through the compute pipeline; that case is refused here with an InputError
-// until load_operand learns to tabulate a spec.
+// Operands are loaded by load_operand(), the one place that knows what an operand may be: a table
+// file (.binary, .exr), or a material spec (.json), solved and tabulated exactly as `compute` would
+// (the "table and a spec" case of DESIGN.md: how much does a stored table differ from the model?).
 
 #include "commands.h"
+#include "source.h"
+
+#include <brdf/service/cl_table_fill.h>
 
 #include <formats/halfdiff.h>
 #include <formats/table_io.h>
@@ -18,6 +20,8 @@
 #include <brdf/core/parse.h>
 
 #include <nlohmann/json.hpp>
+
+#include <thread>
 
 #include <algorithm>
 #include <cctype>
@@ -33,14 +37,16 @@ namespace brdf::tool {
 /// One operand of `diff` as a table: a table file by its extension (formats::read_table). A
 /// material spec (.json) is refused for now (InputError naming the path). Throws what read_table
 /// throws: InputError for an unknown extension, IoError / FormatError for a bad file.
-formats::BrdfTable load_operand(const std::filesystem::path& path);
+formats::BrdfTable load_operand(const std::filesystem::path& path, const std::string& material,
+                                service::Device device);
 
 namespace {
 
 namespace fs = std::filesystem;
 
 struct DiffFlags {
-    std::string a, b, floor;
+    std::string a, b, floor, material;
+    DeviceFlag device;
     bool json = false;
     CLI::Option* o_floor = nullptr;
 };
@@ -71,8 +77,8 @@ int run_diff(const DiffFlags& f) {
             throw InputError(cat("diff: --floor must be > 0 (1/sr; got ", f.floor, ")"));
     }
     const fs::path path_a = f.a, path_b = f.b;
-    const formats::BrdfTable a = load_operand(path_a);
-    const formats::BrdfTable b = load_operand(path_b);
+    const formats::BrdfTable a = load_operand(path_a, f.material, f.device.device());
+    const formats::BrdfTable b = load_operand(path_b, f.material, f.device.device());
     const formats::TableDiff d = formats::diff(a, b, floor);
     const bool compared = d.compared_cells > 0;
 
@@ -146,22 +152,22 @@ int run_diff(const DiffFlags& f) {
 
 } // namespace
 
-formats::BrdfTable load_operand(const std::filesystem::path& path) {
-    if (lower_extension(path) == ".json")
-        throw InputError(cat(
-            path.string(), ": diff: comparing a table against a material spec needs the compute "
-                           "pipeline, which diff does not use yet; compute the table and diff the "
-                           "two tables (.binary or .exr)"));
-    return formats::read_table(path);
+formats::BrdfTable load_operand(const std::filesystem::path& path, const std::string& material,
+                                service::Device device) {
+    if (lower_extension(path) != ".json") return formats::read_table(path);
+    const Source source = load_source(path, material, device);
+    return service::fill_table(service::prepare_fill(*source.model), device);
 }
 
 Subcommand add_diff_command(CLI::App& root) {
     auto flags = std::make_shared<DiffFlags>();
     Subcommand cmd;
-    cmd.app = root.add_subcommand("diff", "Per-channel relative difference of two BRDF tables");
+    cmd.app = root.add_subcommand("diff", "Per-channel relative difference of two BRDF tables, or of a table and its spec");
     CLI::App& app = *cmd.app;
-    app.add_option("A", flags->a, "table to check (.binary or .exr)")->required();
-    app.add_option("B", flags->b, "reference table (.binary or .exr)")->required();
+    app.add_option("A", flags->a, "table to check (.binary or .exr), or a material spec (.json)")->required();
+    app.add_option("B", flags->b, "reference table (.binary or .exr), or a material spec (.json)")->required();
+    app.add_option("--material", flags->material, "material name in a spec catalogue");
+    flags->device.add_to(app);
     flags->o_floor = app.add_option("--floor", flags->floor,
                                     cat("relative-difference floor in 1/sr, > 0 (default ",
                                         formats::default_diff_floor, ")"))

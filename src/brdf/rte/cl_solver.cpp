@@ -1,5 +1,6 @@
-// Host side of kernels/ambartsumian.cl: packs a batch of order problems into one input buffer, one
-// task array, one output and one workspace buffer, runs one work-group per problem and unpacks the
+// Host side of kernels/ambartsumian.cl (cooperative) and kernels/ambartsumian_serial.cl (serial): packs
+// a batch of order problems into one input buffer, one task array, one output and one workspace
+// buffer, runs one work-group (cooperative) or one work-item (serial) per problem and unpacks the
 // solutions. The residual is computed here with the reference's riccati_residual, so an OrderSolution
 // from this path is filled exactly like one from solve_order.
 
@@ -14,6 +15,8 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
+#include <string>
 
 namespace brdf::rte {
 
@@ -132,7 +135,7 @@ void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, std::size_t local
     ::cl::CommandQueue& queue = ctx.queue();
     brdf::cl::check(queue.enqueueNDRangeKernel(kernel, ::cl::NullRange, ::cl::NDRange(count * local_size),
                                                ::cl::NDRange(local_size)),
-                    "OpenCL order solver: run ambartsumian_solve");
+                    "OpenCL order solver: run the order kernel");
     std::vector<double> output(out_size);
     std::vector<AmbStatus> status(count);
     brdf::cl::check(queue.enqueueReadBuffer(out_buf, CL_FALSE, 0, out_size * sizeof(double), output.data()),
@@ -168,10 +171,37 @@ void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, std::size_t local
     }
 }
 
+ClSolverKernel resolve_on(brdf::cl::Context& ctx, ClSolverKernel requested) {
+    if (requested != ClSolverKernel::Automatic) return requested;
+    if (const char* env = std::getenv("BRDF_OPENCL_KERNEL"); env != nullptr && *env != '\0') {
+        const std::string v(env);
+        if (v == "cooperative") return ClSolverKernel::Cooperative;
+        if (v == "serial") return ClSolverKernel::Serial;
+        throw InputError(cat("BRDF_OPENCL_KERNEL='", v, "': expected 'cooperative' or 'serial'"));
+    }
+    cl_device_type type = 0;
+    brdf::cl::check(ctx.device().getInfo(CL_DEVICE_TYPE, &type), "OpenCL order solver: query device type");
+    return (type & CL_DEVICE_TYPE_CPU) != 0 ? ClSolverKernel::Serial : ClSolverKernel::Cooperative;
+}
+
 } // namespace
 
+std::string_view to_string(ClSolverKernel kernel) {
+    switch (kernel) {
+    case ClSolverKernel::Automatic: return "automatic";
+    case ClSolverKernel::Cooperative: return "cooperative";
+    case ClSolverKernel::Serial: return "serial";
+    }
+    return "?";
+}
+
+ClSolverKernel resolve_solver_kernel(ClSolverKernel requested) {
+    if (requested != ClSolverKernel::Automatic) return requested;
+    return resolve_on(*brdf::cl::Context::shared(), requested);
+}
+
 std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> problems, Method method,
-                                               const SolveControl& control) {
+                                               const SolveControl& control, ClSolverKernel which) {
     if (method != Method::FixedPoint && method != Method::Doubling && method != Method::Fast)
         throw InputError("unknown solver method");
     for (std::size_t k = 0; k < problems.size(); ++k) validate(problems[k], k);
@@ -179,16 +209,22 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
     if (problems.empty()) return out;
 
     auto ctx = brdf::cl::Context::shared();
-    const ::cl::Program program = ctx->program("ambartsumian");
+    const bool serial = resolve_on(*ctx, which) == ClSolverKernel::Serial;
+    const char* const program_name = serial ? "ambartsumian_serial" : "ambartsumian";
+    const char* const kernel_name = serial ? "ambartsumian_solve_serial" : "ambartsumian_solve";
+    const ::cl::Program program = ctx->program(program_name);
     cl_int err = CL_SUCCESS;
-    ::cl::Kernel kernel(program, "ambartsumian_solve", &err);
-    brdf::cl::check(err, "OpenCL order solver: create kernel ambartsumian_solve");
-    std::size_t kernel_max = 0;
-    brdf::cl::check(kernel.getWorkGroupInfo(ctx->device(), CL_KERNEL_WORK_GROUP_SIZE, &kernel_max),
-                    "OpenCL order solver: query kernel work-group size");
-    const std::size_t local_size = floor_power_of_two(
-        std::max<std::size_t>(1, std::min({preferred_local_size, ctx->info().max_work_group_size, kernel_max,
-                                           static_cast<std::size_t>(AMB_MAX_WG)})));
+    ::cl::Kernel kernel(program, kernel_name, &err);
+    brdf::cl::check(err, cat("OpenCL order solver: create kernel ", kernel_name));
+    std::size_t local_size = 1; // serial: one work-item per problem, each its own work-group
+    if (!serial) {
+        std::size_t kernel_max = 0;
+        brdf::cl::check(kernel.getWorkGroupInfo(ctx->device(), CL_KERNEL_WORK_GROUP_SIZE, &kernel_max),
+                        "OpenCL order solver: query kernel work-group size");
+        local_size = floor_power_of_two(
+            std::max<std::size_t>(1, std::min({preferred_local_size, ctx->info().max_work_group_size, kernel_max,
+                                               static_cast<std::size_t>(AMB_MAX_WG)})));
+    }
     cl_ulong max_alloc = 0;
     brdf::cl::check(ctx->device().getInfo(CL_DEVICE_MAX_MEM_ALLOC_SIZE, &max_alloc),
                     "OpenCL order solver: query max allocation size");

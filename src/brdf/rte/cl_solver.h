@@ -1,11 +1,14 @@
 #pragma once
-// The OpenCL side of the per-order solvers (kernels/ambartsumian.cl): a batch of order problems in one
-// launch, one work-group per problem. The plain C++ references are solve_order and friends
-// (order_solver.h); the kernel follows them operation for operation.
+// The OpenCL side of the per-order solvers: a batch of order problems in one launch. Two kernels with
+// the same buffers: kernels/ambartsumian.cl (cooperative: one work-group per problem, for GPUs) and
+// kernels/ambartsumian_serial.cl (serial: one work-item per problem, for CPU devices such as PoCL,
+// where it is several times faster). The plain C++ references are solve_order and friends
+// (order_solver.h); both kernels follow them operation for operation.
 
 #include <brdf/rte/order_solver.h>
 
 #include <span>
+#include <string_view>
 #include <vector>
 
 namespace brdf::rte {
@@ -13,14 +16,28 @@ namespace brdf::rte {
 /// Largest number of streams the OpenCL solver accepts (its pivot indices live in local memory).
 inline constexpr int max_opencl_streams = 256;
 
+/// Which kernel solve_orders_opencl runs.
+enum class ClSolverKernel {
+    Automatic,   ///< $BRDF_OPENCL_KERNEL if set, else Serial on a CL_DEVICE_TYPE_CPU device, else Cooperative
+    Cooperative, ///< kernels/ambartsumian.cl: one work-group per problem
+    Serial,      ///< kernels/ambartsumian_serial.cl: one work-item per problem, local size 1
+};
+std::string_view to_string(ClSolverKernel kernel);
+
+/// The kernel Automatic resolves to on the shared context (brdf::cl::Context::shared()): env
+/// BRDF_OPENCL_KERNEL=cooperative|serial overrides the device-type rule. Throws InputError for
+/// another value of the variable, DeviceError without a device. Never returns Automatic.
+ClSolverKernel resolve_solver_kernel(ClSolverKernel requested = ClSolverKernel::Automatic);
+
 /// Solves a batch of order problems (many orders, many media) on the OpenCL device in one launch:
-/// one work-group per problem, the same algorithms as solve_order (FixedPoint, Doubling, Fast), results
+/// one work-group (cooperative) or one work-item (serial) per problem, the same algorithms as solve_order (FixedPoint, Doubling, Fast), results
 /// equal to the C++ reference to ~1e-12 relative. Throws DeviceError on device failure; NumericalError
 /// (naming the order m and omega) when a problem diverges or an LU pivot is zero, as the reference does.
 /// InputError for a problem with more than max_opencl_streams streams or inconsistent sizes.
 /// Uses brdf::cl::Context::shared(); very large batches are split into several launches so that the
 /// workspace (16 n^2 doubles per problem) fits the device's allocation limit.
 std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> problems, Method method,
-                                               const SolveControl& control);
+                                               const SolveControl& control,
+                                               ClSolverKernel kernel = ClSolverKernel::Automatic);
 
 } // namespace brdf::rte

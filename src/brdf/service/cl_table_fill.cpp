@@ -3,6 +3,9 @@
 
 #include <brdf/service/cl_table_fill.h>
 
+#include <algorithm>
+#include <thread>
+
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
@@ -116,6 +119,11 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
                         "OpenCL table fill: read output");
     brdf::cl::check(queue.finish(), "OpenCL table fill: finish");
     return table;
+}
+
+formats::BrdfTable fill_table(const FillInputs& in, Device device) {
+    if (device == Device::OpenCL) return fill_table_opencl(in);
+    return fill_table_cpu(in, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
 }
 
 } // namespace brdf::service

@@ -16,4 +16,7 @@ namespace brdf::service {
 /// grid < 2, tables with fewer than 2 points), DeviceError on device failure (or without a device).
 formats::BrdfTable fill_table_opencl(const FillInputs& in);
 
+/// fill_table_opencl or fill_table_cpu (on every core) by device.
+formats::BrdfTable fill_table(const FillInputs& in, Device device);
+
 } // namespace brdf::service

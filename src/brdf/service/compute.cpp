@@ -7,7 +7,7 @@
 #include <brdf/material/spec.h>
 #include <brdf/service/model.h>
 #include <brdf/service/report.h>
-#include <brdf/service/table_fill.h>
+#include <brdf/service/cl_table_fill.h>
 #include <formats/exr/exr.h>
 #include <formats/merl/merl.h>
 
@@ -62,7 +62,7 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     }
     SolvedMaterial solved = solve_material(spec, options.device);
     auto t = std::chrono::steady_clock::now();
-    formats::BrdfTable table = fill_table_cpu(prepare_fill(solved), static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    formats::BrdfTable table = fill_table(prepare_fill(solved), options.device);
     table.spec = spec.resolved.dump();
     table.generator = std::string(generator_string);
     solved.seconds.table = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();

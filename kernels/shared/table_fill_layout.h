@@ -1,0 +1,32 @@
+#pragma once
+// Parameters of the table-fill kernel (kernels/table_fill.cl), shared with the host
+// (src/brdf/service/cl_table_fill.cpp static_asserts every size and offset). The arrays of
+// brdf::service::FillInputs travel in one buffer of doubles; the offsets below count doubles from its
+// start. The output holds the three channel planes of formats::BrdfTable one after another:
+// output[c * TF_CELLS + cell].
+
+#include "shared/types.h"
+
+/// Cells in one channel plane of the MERL table (formats::cells): 90 * 90 * 180.
+#define TF_THETA_H_BINS 90
+#define TF_THETA_D_BINS 90
+#define TF_PHI_D_BINS 180
+#define TF_CELLS 1458000
+/// formats::BrdfTable::no_data
+#define TF_NO_DATA (-1.0)
+
+typedef struct FillParams {
+    brdf_i64 fourier_offset;      ///< FillInputs::fourier, orders * 3 * grid * grid
+    brdf_i64 phase_offset;        ///< FillInputs::phase, samples * phase_points
+    brdf_i64 index_offset;        ///< FillInputs::index, samples
+    brdf_i64 transmission_offset; ///< FillInputs::transmission, samples * fresnel_points
+    brdf_i64 weight_offset;       ///< FillInputs::weight, samples * 3
+    brdf_i64 first_cell;          ///< this launch's global id 0 is this cell
+    brdf_i64 cell_count;          ///< cells of this launch (global ids past it do nothing)
+    brdf_i32 grid;                ///< E
+    brdf_i32 orders;              ///< M
+    brdf_i32 samples;             ///< S
+    brdf_i32 phase_points;        ///< K
+    brdf_i32 fresnel_points;      ///< F
+    brdf_i32 pad;
+} FillParams;

@@ -1,0 +1,130 @@
+// The MERL table fill: one work-item per cell of the 90 x 90 x 180 half/difference table. The C++
+// reference is brdf::service::fill_table_cpu and fill_value (src/brdf/service/table_fill.cpp) with
+// the bin-centre geometry of formats/halfdiff.cpp (cell_indices, theta_h/theta_d/phi_d_centre,
+// to_directions) and the below-horizon test of formats::cell_below_horizon; this is the same
+// computation, formula for formula and in the same order of summation, in double precision without
+// contraction. Cells whose incident or outgoing bin-centre direction has z <= 0 get TF_NO_DATA in
+// all three channels.
+
+#pragma OPENCL FP_CONTRACT OFF
+
+#include "shared/table_fill_layout.h"
+
+#define TF_PI 3.14159265358979323846
+
+// std::clamp(v, lo, hi) (also for NaN: v < lo and hi < v are both false, v comes back).
+static double clamp_ref(double v, double lo, double hi) { return v < lo ? lo : (hi < v ? hi : v); }
+
+// std::max(0.0, v): 0 for NaN too.
+static double max0_ref(double v) { return 0.0 < v ? v : 0.0; }
+
+// Catmull-Rom taps and weights along one zenith axis of the grid (table_fill.cpp: stencil).
+static void stencil(double theta, int grid, int idx[4], double w[4]) {
+    const double t = clamp_ref(theta / (0.5 * TF_PI), 0.0, 1.0) * (grid - 1);
+    const int i0 = min((int)t, grid - 2);
+    const double f = t - i0;
+    const double f2 = f * f, f3 = f2 * f;
+    w[0] = 0.5 * (-f3 + 2.0 * f2 - f);
+    w[1] = 0.5 * (3.0 * f3 - 5.0 * f2 + 2.0);
+    w[2] = 0.5 * (-3.0 * f3 + 4.0 * f2 + f);
+    w[3] = 0.5 * (f3 - f2);
+    for (int k = 0; k < 4; ++k) idx[k] = clamp(i0 - 1 + k, 0, grid - 1);
+}
+
+static double lerp_table(__global const double* table, int points, double x) { // x in [0, 1]
+    const double t = clamp_ref(x, 0.0, 1.0) * (points - 1);
+    const int k = min((int)t, points - 2);
+    const double f = t - k;
+    return (1.0 - f) * table[k] + f * table[k + 1];
+}
+
+__kernel void table_fill(__global const FillParams* params_in, __global const double* data,
+                         __global double* output) {
+    const FillParams p = *params_in;
+    const long id = (long)get_global_id(0);
+    if (id >= p.cell_count) return;
+    const long cell = p.first_cell + id;
+
+    // formats::cell_indices and the bin centres.
+    const int phi_k = (int)(cell % TF_PHI_D_BINS);
+    const long rest = cell / TF_PHI_D_BINS;
+    const int theta_dj = (int)(rest % TF_THETA_D_BINS);
+    const int theta_hi = (int)(rest / TF_THETA_D_BINS);
+    const double u = (theta_hi + 0.5) / TF_THETA_H_BINS;
+    const double theta_h = u * u * (TF_PI / 2);
+    const double theta_d = (theta_dj + 0.5) / TF_THETA_D_BINS * (TF_PI / 2);
+    const double phi_d = (phi_k + 0.5) / TF_PHI_D_BINS * TF_PI;
+
+    // formats::to_directions: wi = Ry(theta_h) d, wo = Ry(theta_h) (-d.x, -d.y, d.z).
+    const double sd = sin(theta_d), cd = cos(theta_d);
+    const double dx = sd * cos(phi_d), dy = sd * sin(phi_d), dz = cd;
+    const double sh = sin(theta_h), ch = cos(theta_h);
+    const double wix = dx * ch + dz * sh, wiy = dy, wiz = -dx * sh + dz * ch;
+    const double mdx = -dx, mdy = -dy;
+    const double wox = mdx * ch + dz * sh, woy = mdy, woz = -mdx * sh + dz * ch;
+
+    if (wiz <= 0.0 || woz <= 0.0) { // formats::cell_below_horizon
+        output[cell] = TF_NO_DATA;
+        output[TF_CELLS + cell] = TF_NO_DATA;
+        output[2 * TF_CELLS + cell] = TF_NO_DATA;
+        return;
+    }
+    const double theta_i = acos(clamp_ref(wiz, -1.0, 1.0));
+    const double theta_o = acos(clamp_ref(woz, -1.0, 1.0));
+    const double phi = atan2(woy, wox) - atan2(wiy, wix);
+
+    // fill_value(in, theta_i, theta_o, phi)
+    double out0 = 0.0, out1 = 0.0, out2 = 0.0;
+    const double mu_i = cos(theta_i), mu_o = cos(theta_o);
+    if (mu_i > 0.0 && mu_o > 0.0) {
+        const int e = p.grid;
+        int so_idx[4], si_idx[4];
+        double so_w[4], si_w[4];
+        stencil(theta_o, e, so_idx, so_w);
+        stencil(theta_i, e, si_idx, si_w);
+        const double c1 = cos(phi);
+        double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
+        __global const double* fourier = data + p.fourier_offset;
+        for (int m = 0; m < p.orders; ++m) {
+            for (int c = 0; c < 3; ++c) {
+                __global const double* f = fourier + (((long)m * 3 + c) * e) * e;
+                double v = 0.0;
+                for (int a = 0; a < 4; ++a) {
+                    __global const double* row = f + (long)so_idx[a] * e;
+                    v += so_w[a] * (si_w[0] * row[si_idx[0]] + si_w[1] * row[si_idx[1]] + si_w[2] * row[si_idx[2]] +
+                                    si_w[3] * row[si_idx[3]]);
+                }
+                if (c == 0) out0 += v * cm;
+                else if (c == 1) out1 += v * cm;
+                else out2 += v * cm;
+            }
+            const double next = 2.0 * c1 * cm - cm_prev;
+            cm_prev = cm;
+            cm = next;
+        }
+        // Single scattering with the full phase function, per sample (its own refraction).
+        const double sin_i = sqrt(max0_ref(1.0 - mu_i * mu_i)), sin_o = sqrt(max0_ref(1.0 - mu_o * mu_o));
+        const int kp = p.phase_points, kf = p.fresnel_points;
+        __global const double* index = data + p.index_offset;
+        __global const double* weight = data + p.weight_offset;
+        for (int s = 0; s < p.samples; ++s) {
+            const double n = index[s], inv_n2 = 1.0 / (n * n);
+            const double ui = sqrt(1.0 - sin_i * sin_i * inv_n2), uo = sqrt(1.0 - sin_o * sin_o * inv_n2);
+            const double cos_scatter = clamp_ref(-uo * ui - sin_o * sin_i * inv_n2 * c1, -1.0, 1.0);
+            const double phase =
+                lerp_table(data + p.phase_offset + (long)s * kp, kp, sqrt(0.5 * (1.0 - cos_scatter)));
+            __global const double* t = data + p.transmission_offset + (long)s * kf;
+            const double factor = lerp_table(t, kf, mu_o) * lerp_table(t, kf, mu_i) / t[kf - 1];
+            const double v = factor * phase / (uo + ui);
+            out0 += weight[s * 3 + 0] * v;
+            out1 += weight[s * 3 + 1] * v;
+            out2 += weight[s * 3 + 2] * v;
+        }
+        out0 = max0_ref(out0);
+        out1 = max0_ref(out1);
+        out2 = max0_ref(out2);
+    }
+    output[cell] = out0;
+    output[TF_CELLS + cell] = out1;
+    output[2 * TF_CELLS + cell] = out2;
+}
