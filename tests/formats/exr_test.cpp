@@ -368,6 +368,18 @@ TEST(ExrRead, CheckedInSpecimens) {
     EXPECT_THROW_MESSAGE(read_exr(bad / "exr_wrong_size.exr"), FormatError,
                          (bad / "exr_wrong_size.exr").string() +
                              ": wrong size 180 x 100 (a BRDF table is 180 x 8100)");
+    EXPECT_THROW_MESSAGE(read_exr(bad / "exr_nan.exr"), FormatError,
+                         (bad / "exr_nan.exr").string() +
+                             ": non-finite value NaN in channel R at cell theta_h 0, theta_d 0, "
+                             "phi_d 0");
+    EXPECT_THROW_MESSAGE(read_exr(bad / "exr_wrong_endian.exr"), FormatError,
+                         (bad / "exr_wrong_endian.exr").string() + ": not an OpenEXR file");
+    const std::string truncated = (bad / "exr_truncated.exr").string();
+    EXPECT_THROW_MESSAGE(read_exr(bad / "exr_truncated.exr"), FormatError,
+                         truncated + ": OpenEXR: Error reading pixel data from image file \"" +
+                             truncated +
+                             "\". unexpected end of file (4 bytes wanted at offset 18179, 0 "
+                             "there)");
 }
 
 TEST(ExrWrite, BadTableIsRefusedAndNothingIsLeftBehind) {

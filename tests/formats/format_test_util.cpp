@@ -1,5 +1,7 @@
 #include "format_test_util.h"
 
+#include "test_support.h"
+
 #include <formats/merl/merl.h>
 
 #include <ImfChannelList.h>
@@ -164,6 +166,8 @@ std::vector<MerlSpecimen> merl_specimens() {
         {"merl_truncated.binary", merl_truncated(1200)},
         {"merl_big_endian.binary", merl_header_big_endian(90, 90, 180)},
         {"merl_huge_dims.binary", merl_header(90, 90, 2147483647)},
+        {"merl_short_header.binary", merl_header(90, 90, 180).substr(0, 8)},
+        {"merl_wrong_dims.binary", merl_header(90, 90, 360) + std::string(24, '\0')},
     };
 }
 
@@ -175,6 +179,20 @@ void write_exr_specimens(const std::filesystem::path& folder) {
     ExrSpecimen small;
     small.height = 100;
     write_exr_specimen(folder / "exr_wrong_size.exr", small);
+    ExrSpecimen nan;
+    nan.value = std::nanf(""); // a constant compresses to almost nothing
+    write_exr_specimen(folder / "exr_nan.exr", nan);
+    // A valid table cut off in its pixel data, and one whose magic number is byte-swapped (what a
+    // big-endian writer that forgot OpenEXR is little-endian would produce).
+    ExrSpecimen zero;
+    zero.value = 0.0f;
+    const std::filesystem::path whole = folder / "exr_truncated.exr";
+    write_exr_specimen(whole, zero);
+    std::string bytes = read_file(whole);
+    write_file(whole, bytes.substr(0, bytes.size() / 2));
+    std::swap(bytes[0], bytes[3]);
+    std::swap(bytes[1], bytes[2]);
+    write_file(folder / "exr_wrong_endian.exr", bytes.substr(0, 4096));
 }
 
 } // namespace brdf::test

@@ -308,6 +308,13 @@ TEST(MerlRead, CheckedInSpecimens) {
         read_merl(bad / "merl_huge_dims.binary"), FormatError,
         path("merl_huge_dims.binary") +
             ": unsupported dims 90 x 90 x 2147483647 (a MERL table has 90 x 90 x 180)");
+    EXPECT_THROW_MESSAGE(read_merl(bad / "merl_short_header.binary"), FormatError,
+                         path("merl_short_header.binary") +
+                             ": truncated (34992012 bytes expected, 8 found)");
+    EXPECT_THROW_MESSAGE(
+        read_merl(bad / "merl_wrong_dims.binary"), FormatError,
+        path("merl_wrong_dims.binary") +
+            ": unsupported dims 90 x 90 x 360 (a MERL table has 90 x 90 x 180)");
 }
 
 // --- the writer: all or nothing

@@ -541,9 +541,247 @@ TEST(SpecErrors, NameLimits) {
     EXPECT_NE(input_error(doc).find("doc.json: name: missing"), std::string::npos);
 }
 
+// ------------------------------------------------------------------------------------------------
+// Resource limits (SpecLimits): LimitError naming the limit and the "limits" key that overrides it
+
+std::filesystem::path bad_table_folder(const std::string& name) {
+    return test::source_dir() / "tests/data/bad" / name;
+}
+
+// The message of the LimitError that `f` throws ("" and a failure if none).
+template <typename F>
+std::string limit_error(F&& f) {
+    try {
+        f();
+    } catch (const LimitError& e) {
+        return e.what();
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << "expected LimitError, got " << e.what();
+        return {};
+    }
+    ADD_FAILURE() << "no LimitError";
+    return {};
+}
+
+nlohmann::json hg_medium(double tolerance) {
+    return {{"name", "m"},
+            {"medium", {{"albedo", 0.9}}},
+            {"surface", "none"},
+            {"accuracy", {{"tolerance", tolerance}}}};
+}
+
+TEST(SpecLimits, DefaultsAndAbsentFromTheResolvedSpec) {
+    const MaterialSpec s = load_specs(good("design_example.json")).at(0);
+    EXPECT_EQ(s.limits.max_wavelengths, 2000u);
+    EXPECT_EQ(s.limits.max_size_parameter, 1e5);
+    EXPECT_EQ(s.limits.min_tolerance, 1e-8);
+    EXPECT_EQ(s.limits.max_legendre_terms, 100000u);
+    // Not written when not given: the hashes of existing specs do not change.
+    EXPECT_FALSE(s.resolved.contains("limits"));
+}
+
+TEST(SpecLimits, GivenLimitsAreResolvedAndChangeTheHash) {
+    nlohmann::json doc = hg_medium(1e-3);
+    const MaterialSpec plain = parse_specs(doc, "doc.json").at(0);
+    doc["limits"] = {{"max_size_parameter", 1e6}, {"max_legendre_terms", 200000}};
+    const MaterialSpec raised = parse_specs(doc, "doc.json").at(0);
+    EXPECT_EQ(raised.limits.max_size_parameter, 1e6);
+    EXPECT_EQ(raised.limits.max_legendre_terms, 200000u);
+    EXPECT_EQ(raised.limits.max_wavelengths, 2000u);
+    EXPECT_EQ(raised.resolved["limits"],
+              (nlohmann::json{{"max_legendre_terms", 200000.0}, {"max_size_parameter", 1e6}}));
+    EXPECT_NE(raised.hash, plain.hash);
+    // parse_specs(resolved) gives the same material again.
+    EXPECT_EQ(parse_specs(raised.resolved, "r.json").at(0).hash, raised.hash);
+}
+
+TEST(SpecLimits, ToleranceBelowTheLimitNeedsAnOverride) {
+    EXPECT_EQ(limit_error([] { parse_specs(hg_medium(1e-9), "doc.json"); }),
+              "doc.json: accuracy.tolerance: 1e-09 is below the limit of 1e-08 (the solver's "
+              "double-precision floor; streams and time grow as the tolerance falls); to override, "
+              "set \"limits\": {\"min_tolerance\": 1e-09}");
+    nlohmann::json doc = hg_medium(1e-9);
+    doc["limits"] = {{"min_tolerance", 1e-9}};
+    EXPECT_EQ(parse_specs(doc, "doc.json").at(0).accuracy.tolerance, 1e-9);
+    // Zero and negative tolerances stay input errors, whatever the limits.
+    EXPECT_NE(input_error(hg_medium(0.0)).find("accuracy.tolerance: must be in [1e-8, 0.5]"),
+              std::string::npos);
+}
+
+TEST(SpecLimits, MoreWavelengthsThanTheLimitNeedAnOverride) {
+    nlohmann::json doc = hg_medium(1e-3);
+    std::vector<double> wavelengths;
+    for (int i = 0; i < 2001; ++i) wavelengths.push_back(400.0 + 0.1 * i);
+    doc["spectrum"] = {{"wavelengths_nm", wavelengths}};
+    EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }),
+              "doc.json: spectrum.wavelengths_nm: lists 2001 wavelengths, more than the limit of "
+              "2000 (the solve's time grows with the count); to override, set \"limits\": "
+              "{\"max_wavelengths\": 2001}");
+    doc["limits"] = {{"max_wavelengths", 2001}};
+    EXPECT_EQ(parse_specs(doc, "doc.json").at(0).spectrum.size(), 2001u);
+    // Below the limit and above spectrum.h's own list cap (1000) is accepted as it is.
+    wavelengths.resize(1500);
+    doc.erase("limits");
+    doc["spectrum"] = {{"wavelengths_nm", wavelengths}};
+    EXPECT_EQ(parse_specs(doc, "doc.json").at(0).spectrum.size(), 1500u);
+}
+
+TEST(SpecLimits, SizeParameterAboveTheLimitNeedsAnOverride) {
+    nlohmann::json doc = {
+        {"name", "p"},
+        {"binder", {{"index", 1.5}}},
+        {"pigments",
+         {{{"index", 2.0},
+           {"volume_fraction", 0.1},
+           {"size", {{"distribution", "monodisperse"}, {"radius_um", 10000.0}}}}}},
+        {"spectrum", "rgb"}};
+    // x = 2 pi 10000 um 1.5 / 0.464 um = 203120 at the shortest wavelength of the rgb set.
+    EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }),
+              "doc.json: pigments[0].size: size parameter x = 2 pi r_max n_binder / lambda reaches "
+              "203120 (r_max 1e+04 um, n_binder 1.5 at 464 nm), above the limit of 1e+05 (Mie "
+              "series need about x terms per radius); to override, set \"limits\": "
+              "{\"max_size_parameter\": 203121}");
+    doc["limits"] = {{"max_size_parameter", 3e5}};
+    EXPECT_NO_THROW(parse_specs(doc, "doc.json"));
+    // The distribution's upper integration radius counts, not its effective radius.
+    doc.erase("limits");
+    doc["pigments"][0]["size"] = {{"distribution", "lognormal"}, {"r_g_um", 1000.0},
+                                  {"sigma_g", 2.0}};
+    EXPECT_NE(limit_error([&] { parse_specs(doc, "doc.json"); })
+                  .find("doc.json: pigments[0].size: size parameter"),
+              std::string::npos);
+}
+
+TEST(SpecLimits, LimitsAndInputFaultsTogetherAreOneInputError) {
+    nlohmann::json doc = hg_medium(1e-9);
+    doc["surface"] = "glossy";
+    const std::string message = input_error(doc);
+    EXPECT_NE(message.find("doc.json: surface: must be \"none\" or \"smooth\""),
+              std::string::npos);
+    EXPECT_NE(message.find("doc.json: accuracy.tolerance: 1e-09 is below the limit"),
+              std::string::npos);
+}
+
+TEST(SpecLimits, CatalogueDefaultsCanRaiseLimits) {
+    const nlohmann::json doc = {
+        {"defaults", {{"limits", {{"min_tolerance", 1e-10}}}}},
+        {"materials", {hg_medium(1e-9)}}};
+    EXPECT_EQ(parse_specs(doc, "doc.json").at(0).limits.min_tolerance, 1e-10);
+}
+
+// The malformed specs kept with the malformed tables (tests/data/bad/spec_*.json), each with its
+// exact message.
+TEST(SpecLimits, CheckedInSpecimens) {
+    const auto path = [](const char* name) { return bad_table_folder(name).string(); };
+    EXPECT_EQ(limit_error([&] { load_specs(path("spec_too_many_wavelengths.json")); }),
+              path("spec_too_many_wavelengths.json") +
+                  ": spectrum.wavelengths_nm: lists 2001 wavelengths, more than the limit of 2000 "
+                  "(the solve's time grows with the count); to override, set \"limits\": "
+                  "{\"max_wavelengths\": 2001}");
+    EXPECT_EQ(limit_error([&] { load_specs(path("spec_size_parameter.json")); }),
+              path("spec_size_parameter.json") +
+                  ": pigments[0].size: size parameter x = 2 pi r_max n_binder / lambda reaches "
+                  "124899 (r_max 5000 um, n_binder 1.511 at 380 nm), above the limit of 1e+05 (Mie "
+                  "series need about x terms per radius); to override, set \"limits\": "
+                  "{\"max_size_parameter\": 124900}");
+    EXPECT_EQ(limit_error([&] { load_specs(path("spec_tolerance_below_limit.json")); }),
+              path("spec_tolerance_below_limit.json") +
+                  ": accuracy.tolerance: 1e-09 is below the limit of 1e-08 (the solver's "
+                  "double-precision floor; streams and time grow as the tolerance falls); to "
+                  "override, set \"limits\": {\"min_tolerance\": 1e-09}");
+    const std::string limits = path("spec_bad_limits.json");
+    EXPECT_EQ(input_error(bad_table_folder("spec_bad_limits.json")),
+              limits + ": limits.max_size_parametr: unknown key (did you mean "
+                       "\"max_size_parameter\"?); expected one of: max_wavelengths, "
+                       "max_size_parameter, min_tolerance, max_legendre_terms\n" +
+                  limits + ": limits.max_wavelengths: must be a whole number in [1, 1e9] (got 2.5)\n" +
+                  limits + ": limits.min_tolerance: must be in (0, 0.5] (got 0)");
+    EXPECT_EQ(input_error(bad_table_folder("spec_truncated.json")),
+              path("spec_truncated.json") +
+                  ":4:6: invalid JSON: syntax error while parsing object key - invalid string: "
+                  "missing closing quote; last read: '\"'; expected string literal");
+}
+
+// Found by fuzz_spec: a number beyond the range of a double escaped parse_specs_text as a
+// nlohmann::json out_of_range exception instead of an InputError.
+TEST(SpecErrors, NumberOverflowIsAnInputError) {
+    EXPECT_NE(input_error(test::source_dir() /
+                          "tests/data/fuzz/regressions/spec-number-overflow.json")
+                  .find(": invalid JSON: number overflow parsing '0.1e30815'"),
+              std::string::npos);
+    try {
+        parse_specs_text(R"({"name": "x", "medium": {"albedo": 1e400}})", "doc.json");
+        ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_EQ(std::string(e.what()), "doc.json: invalid JSON: number overflow parsing '1e400' "
+                                         "(every number in a spec must fit in a double)");
+    }
+}
+
 TEST(SpecErrors, UnreadableFileIsAnIoError) {
     EXPECT_THROW(load_specs(bad("does_not_exist.json")), IoError);
     EXPECT_THROW(load_specs(test::source_dir() / "tests/data/specs"), IoError);
+}
+
+// ------------------------------------------------------------------------------------------------
+// "model": "exact" (default) | "dipole" (the Jensen et al. 2001 comparison model)
+
+nlohmann::json model_medium() {
+    return {{"name", "m"}, {"medium", {{"albedo", 0.9}, {"phase", {{"type", "henyey_greenstein"}, {"g", 0.5}}}}},
+            {"spectrum", "rgb"}};
+}
+
+TEST(SpecModel, DefaultIsExactAndLeavesTheResolvedSpecAndHashUnchanged) {
+    nlohmann::json plain = model_medium(), exact = model_medium();
+    exact["model"] = "exact";
+    const auto a = parse_specs(plain, "a.json"), b = parse_specs(exact, "b.json");
+    ASSERT_EQ(a.size(), 1u);
+    ASSERT_EQ(b.size(), 1u);
+    EXPECT_EQ(a[0].model, Model::Exact);
+    EXPECT_EQ(b[0].model, Model::Exact);
+    EXPECT_FALSE(a[0].resolved.contains("model"));
+    EXPECT_FALSE(b[0].resolved.contains("model"));
+    EXPECT_EQ(a[0].hash, b[0].hash);
+}
+
+TEST(SpecModel, DipoleIsResolvedHashedAndRoundTrips) {
+    nlohmann::json doc = model_medium();
+    doc["model"] = "dipole";
+    const auto d = parse_specs(doc, "d.json");
+    ASSERT_EQ(d.size(), 1u);
+    EXPECT_EQ(d[0].model, Model::Dipole);
+    EXPECT_EQ(d[0].resolved["model"], "dipole");
+    EXPECT_NE(d[0].hash, parse_specs(model_medium(), "e.json")[0].hash);
+    const auto again = parse_specs(d[0].resolved, "again.json");
+    EXPECT_EQ(again[0].model, Model::Dipole);
+    EXPECT_EQ(again[0].hash, d[0].hash);
+    EXPECT_EQ(to_string(Model::Dipole), "dipole");
+    EXPECT_EQ(to_string(Model::Exact), "exact");
+}
+
+TEST(SpecModel, CatalogueDefaultsCarryTheModel) {
+    const nlohmann::json doc = {{"defaults", {{"model", "dipole"}}},
+                                {"materials", {model_medium(), [] { auto m = model_medium(); m["name"] = "n"; m["model"] = "exact"; return m; }()}}};
+    const auto specs = parse_specs(doc, "cat.json");
+    ASSERT_EQ(specs.size(), 2u);
+    EXPECT_EQ(specs[0].model, Model::Dipole);
+    EXPECT_EQ(specs[1].model, Model::Exact);
+}
+
+TEST(SpecModel, BadValuesNameThePath) {
+    nlohmann::json typo = model_medium();
+    typo["model"] = "dipol";
+    EXPECT_EQ(input_error(typo),
+              "doc.json: model: must be \"exact\" or \"dipole\" (did you mean \"dipole\"?) (got \"dipol\")");
+    nlohmann::json number = model_medium();
+    number["model"] = 3;
+    const std::string e = input_error(number);
+    EXPECT_NE(e.find("doc.json: model: "), std::string::npos) << e;
+    EXPECT_EQ(line_count(e), 1u) << e;
+    // Reported together with other faults, each on its own line.
+    nlohmann::json two = typo;
+    two["surface"] = "shiny";
+    EXPECT_EQ(line_count(input_error(two)), 2u);
 }
 
 } // namespace

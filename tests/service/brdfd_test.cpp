@@ -4,6 +4,7 @@
 
 #include <brdf/core/version.h>
 
+#include "brdfd_fixture.h"
 #include "spool_fixture.h"
 
 #include <nlohmann/json.hpp>
@@ -16,87 +17,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-extern char** environ;
-
 namespace brdf::test {
 namespace {
 
 namespace fs = std::filesystem;
-
-/// brdfd running in the background, its stdout and stderr going to a file; killed if still running
-/// when destroyed.
-class Brdfd {
-public:
-    Brdfd(const std::vector<std::string>& args, const std::string& test_runner, const fs::path& log)
-        : m_log(log) {
-        std::vector<std::string> argv{(bin_dir() / "brdfd").string()};
-        argv.insert(argv.end(), args.begin(), args.end());
-        std::vector<std::string> env;
-        for (char** e = environ; *e; ++e)
-            if (std::strncmp(*e, "BRDFD_TEST_RUNNER=", 18) != 0) env.emplace_back(*e);
-        if (!test_runner.empty()) env.push_back("BRDFD_TEST_RUNNER=" + test_runner);
-        // Everything exec needs is built before fork: the child only dup2s and execs.
-        std::vector<char*> cargv, cenv;
-        for (std::string& a : argv) cargv.push_back(a.data());
-        cargv.push_back(nullptr);
-        for (std::string& e : env) cenv.push_back(e.data());
-        cenv.push_back(nullptr);
-        const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-        if (fd < 0) throw std::runtime_error("cannot create " + log.string());
-        m_pid = fork();
-        if (m_pid < 0) throw std::runtime_error("fork failed");
-        if (m_pid == 0) {
-            dup2(fd, 1);
-            dup2(fd, 2);
-            execve(cargv[0], cargv.data(), cenv.data());
-            _exit(127);
-        }
-        ::close(fd);
-    }
-    ~Brdfd() {
-        if (m_pid > 0 && !m_status) {
-            kill(m_pid, SIGKILL);
-            waitpid(m_pid, nullptr, 0);
-        }
-    }
-    Brdfd(const Brdfd&) = delete;
-    Brdfd& operator=(const Brdfd&) = delete;
-
-    void signal(int signo) const { kill(m_pid, signo); }
-    /// Exit status (128 + signal when killed by one), or -1 if still running after `seconds`.
-    int wait(double seconds) {
-        if (m_status) return *m_status;
-        const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-        for (;;) {
-            int status = 0;
-            if (waitpid(m_pid, &status, WNOHANG) == m_pid) {
-                m_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-                return *m_status;
-            }
-            if (std::chrono::steady_clock::now() > deadline) return -1;
-            std::this_thread::sleep_for(std::chrono::milliseconds(10));
-        }
-    }
-    std::string log() const { return read_file(m_log); }
-
-private:
-    fs::path m_log;
-    pid_t m_pid = -1;
-    std::optional<int> m_status;
-};
-
-nlohmann::json status_of(const fs::path& spool) {
-    try {
-        return nlohmann::json::parse(read_file(spool / "status.json"));
-    } catch (const std::exception&) {
-        return nlohmann::json::object();
-    }
-}
-
-bool running_jobs(const fs::path& spool, std::size_t n) {
-    const nlohmann::json s = status_of(spool);
-    return s.contains("running") && s["running"].size() == n;
-}
 
 TEST(Brdfd, VersionAndHelp) {
     const ProcessResult version = run_tool("brdfd", {"--version"});

@@ -358,5 +358,51 @@ TEST(Daemon, InvalidOptionsAreInputErrors) {
     EXPECT_THROW(run_daemon(o, fake.runner()), InputError);
 }
 
+
+// inotify: with a 30 s poll, a spec dropped while every worker is idle starts at once, whether it is
+// renamed in (IN_MOVED_TO) or written in place (IN_CLOSE_WRITE).
+TEST(Daemon, NewSpecWakesAnIdleDaemonWithoutWaitingForThePoll) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    FakeRunner fake;
+    std::stop_source stop;
+    DaemonOptions o = options_for(spool, 2, false);
+    o.poll_seconds = 30;
+    o.stop = stop.get_token();
+    auto daemon = std::async(std::launch::async, [&] { return run_daemon(o, fake.runner()); });
+    ASSERT_TRUE(wait_until([&] { return fs::exists(spool / "status.json"); }));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200)); // both workers asleep on the poll
+    submit(spool, "renamed.json");
+    EXPECT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "renamed.json"); }, 1.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    write_file(spool / "incoming" / "written.json", "{}");
+    EXPECT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "written.json"); }, 1.0));
+    stop.request_stop();
+    EXPECT_EQ(daemon.get(), 0);
+}
+
+// Without the watch (no inotify, or a network file system where it does not fire) polling serves.
+TEST(Daemon, PollingServesWhenTheWatchIsOff) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    FakeRunner fake;
+    std::stop_source stop;
+    DaemonOptions o = options_for(spool, 1, false);
+    o.watch_incoming = false;
+    o.poll_seconds = 1.5;
+    o.stop = stop.get_token();
+    auto daemon = std::async(std::launch::async, [&] { return run_daemon(o, fake.runner()); });
+    ASSERT_TRUE(wait_until([&] { return fs::exists(spool / "status.json"); }));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    submit(spool, "polled.json");
+    // Nothing wakes the worker before its poll: the watch is what makes the other test fast...
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    EXPECT_FALSE(fs::exists(spool / "done" / "polled.json"));
+    // ...and the poll finds the spec all the same.
+    EXPECT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "polled.json"); }, 5.0));
+    stop.request_stop();
+    EXPECT_EQ(daemon.get(), 0);
+}
+
 } // namespace
 } // namespace brdf::test

@@ -8,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <chrono>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -165,6 +167,98 @@ TEST(Spool, RequeueDoesNotOverwriteANewerSubmission) {
     EXPECT_EQ(read_file(spool.failed() / "job.json"), "old");
     const auto record = nlohmann::json::parse(read_file(spool.failed() / "job.error.json"));
     EXPECT_EQ(record["kind"], "interrupted");
+}
+
+
+// A daemon killed inside fail() leaves failed/NAME.error.json without failed/NAME; when the requeued
+// job then succeeds, finish() drops that record. A record beside a failed spec is kept.
+TEST(Spool, FinishDropsAnErrorRecordLeftWithoutItsSpec) {
+    TempDir tmp;
+    Spool spool(tmp / "spool");
+    const DaemonLease lease(spool);
+    write_file(spool.failed() / "x.error.json", "{}");
+    submit(spool.root(), "x.json");
+    ASSERT_TRUE(spool.claim("x.json", lease));
+    spool.finish("x.json");
+    EXPECT_FALSE(fs::exists(spool.failed() / "x.error.json"));
+    write_file(spool.failed() / "y.json", "old");
+    write_file(spool.failed() / "y.error.json", "{}");
+    submit(spool.root(), "y.json");
+    ASSERT_TRUE(spool.claim("y.json", lease));
+    spool.finish("y.json");
+    EXPECT_TRUE(fs::exists(spool.failed() / "y.error.json"));
+    EXPECT_TRUE(fs::exists(spool.done() / "y.json"));
+}
+
+TEST(Spool, TemporaryNames) {
+    for (const char* name : {".k.binary.tmp.123.0.456789", ".k.report.json.123.4.tmp", ".k.report.json.123.tmp",
+                             ".status.json.9.1.tmp", ".host-1-abc.lock.tmp", ".x.tmp"})
+        EXPECT_TRUE(Spool::is_temporary_name(name)) << name;
+    for (const char* name : {"k.binary", ".spool.lock", ".keep", "x.tmp", ".tmpfile", ".k.tmpx.1", ""})
+        EXPECT_FALSE(Spool::is_temporary_name(name)) << name;
+}
+
+// The pid of a process that has ended (and been reaped): what a SIGKILLed writer's pid looks like.
+pid_t dead_pid() {
+    const pid_t child = fork();
+    if (child == 0) _exit(0);
+    waitpid(child, nullptr, 0);
+    return child;
+}
+
+TEST(Spool, RemovesTemporariesOfDeadWritersOnly) {
+    TempDir tmp;
+    Spool spool(tmp / "spool");
+    const std::string dead = std::to_string(dead_pid());
+    const std::string live = std::to_string(getppid()); // the test runner's parent: alive, not us
+    const auto now = fs::file_time_type::clock::now();
+    const auto plant = [&](const fs::path& path, fs::file_time_type mtime) {
+        write_file(path, "partial");
+        fs::last_write_time(path, mtime);
+        return path;
+    };
+    const auto old = now - std::chrono::seconds(10);
+    // Leftovers of a killed daemon, in each writer's naming.
+    const std::vector<fs::path> stale = {
+        plant(spool.results() / (".k.binary.tmp." + dead + ".0.123456"), old),
+        plant(spool.results() / (".k.report.json." + dead + ".3.tmp"), old),
+        plant(spool.results() / (".k.report.json." + dead + ".tmp"), old),
+        plant(spool.root() / (".status.json." + dead + ".7.tmp"), old),
+        plant(spool.active() / (".x.json.owner." + dead + ".1.tmp"), old),
+        plant(spool.failed() / (".x.error.json." + dead + ".2.tmp"), old),
+        plant(spool.daemons() / (".host-" + dead + "-0badf00d.lock.tmp"), old)};
+    // Never touched: a live writer's temporary, a hidden file that is not a temporary, a table, a
+    // user's staging file in incoming/, and (while young) a dead writer's file newer than the start.
+    const std::vector<fs::path> kept = {
+        plant(spool.results() / (".k.exr.tmp." + live + ".0.1"), old),
+        plant(spool.results() / ".keep", old),
+        plant(spool.results() / "k.binary", old),
+        plant(spool.incoming() / (".user.json." + dead + ".tmp"), old)};
+    const fs::path young = plant(spool.results() / (".y.binary.tmp." + dead + ".0.1"), now);
+    const auto started = now - std::chrono::seconds(5);
+
+    const DaemonLease self(spool);
+    {
+        // Another daemon is alive: its writers could be anywhere (another host), so only files older
+        // than stale_after go; none is.
+        const DaemonLease other(spool);
+        EXPECT_EQ(spool.remove_stale_temporaries(started, self), std::vector<fs::path>{});
+    }
+    std::vector<fs::path> removed = spool.remove_stale_temporaries(started, self);
+    std::sort(removed.begin(), removed.end());
+    std::vector<fs::path> expected = stale;
+    std::sort(expected.begin(), expected.end());
+    EXPECT_EQ(removed, expected);
+    for (const fs::path& p : kept) EXPECT_TRUE(fs::exists(p)) << p;
+    EXPECT_TRUE(fs::exists(young));
+    EXPECT_TRUE(fs::exists(spool.root() / ".spool.lock"));
+    {
+        // Past stale_after a dead writer's temporary goes even while other daemons live.
+        const DaemonLease other(spool);
+        EXPECT_EQ(spool.remove_stale_temporaries(started, self, std::chrono::seconds(0)),
+                  std::vector<fs::path>{young});
+    }
+    for (const fs::path& p : kept) EXPECT_TRUE(fs::exists(p)) << p;
 }
 
 } // namespace

@@ -12,6 +12,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +21,7 @@
 #include <fstream>
 #include <string>
 #include <thread>
+#include <unistd.h>
 
 namespace {
 
@@ -42,24 +44,36 @@ Exit status:
   2  usage error          3  invalid input (flags)   7  spool not usable (I/O)
   70 internal error)";
 
-/// Test hook, not a user feature: BRDFD_TEST_RUNNER=sleep:SECONDS replaces the compute pipeline by a
-/// runner that sleeps, then fails with an input error if the spec contains "brdfd-test-fail" and
-/// otherwise writes results/NAME.result (a copy of the spec). Lets tests drive the real binary
-/// (signals, exit statuses) without computing anything.
+/// Test hook, not a user feature: BRDFD_TEST_RUNNER=sleep:SECONDS[,write:SECONDS] replaces the compute
+/// pipeline by a runner that sleeps, then fails with an input error if the spec contains
+/// "brdfd-test-fail" and otherwise writes results/NAME.result (a copy of the spec). With `write:W` the
+/// result is written the way the table writers do it, slowly: a hidden temporary
+/// ".NAME.result.tmp.PID.N.STAMP", half the text, W seconds, the rest, rename; so tests can kill the
+/// daemon while a result is half written. Lets tests drive the real binary (signals, exit statuses,
+/// kills) without computing anything.
 brdf::service::JobRunner test_runner(const std::string& hook) {
     using namespace brdf;
-    const std::string prefix = "sleep:";
-    double seconds = -1.0;
-    if (hook.rfind(prefix, 0) == 0) {
+    double seconds = -1.0, write_seconds = 0.0;
+    const auto number = [](const std::string& text, const std::string& prefix) {
+        if (text.rfind(prefix, 0) != 0) return -1.0;
         try {
-            seconds = std::stod(hook.substr(prefix.size()));
+            std::size_t used = 0;
+            const double v = std::stod(text.substr(prefix.size()), &used);
+            return used == text.size() - prefix.size() ? v : -1.0;
         } catch (const std::exception&) {
+            return -1.0;
         }
-    }
-    if (!(seconds >= 0.0) || !std::isfinite(seconds))
-        throw InputError(cat("BRDFD_TEST_RUNNER: expected sleep:SECONDS (got '", hook, "')"));
+    };
+    const std::size_t comma = hook.find(',');
+    seconds = number(hook.substr(0, comma), "sleep:");
+    if (comma != std::string::npos) write_seconds = number(hook.substr(comma + 1), "write:");
+    if (!(seconds >= 0.0) || !std::isfinite(seconds) || !(write_seconds >= 0.0) ||
+        !std::isfinite(write_seconds))
+        throw InputError(
+            cat("BRDFD_TEST_RUNNER: expected sleep:SECONDS[,write:SECONDS] (got '", hook, "')"));
     log::warn("brdfd: test hook BRDFD_TEST_RUNNER=", hook, ": jobs sleep instead of computing");
-    return [seconds](const std::filesystem::path& spec, const std::filesystem::path& results) {
+    return [seconds, write_seconds](const std::filesystem::path& spec,
+                                    const std::filesystem::path& results) {
         std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
         std::ifstream in(spec, std::ios::binary);
         std::string text;
@@ -68,7 +82,25 @@ brdf::service::JobRunner test_runner(const std::string& hook) {
             text.append(buf, static_cast<std::size_t>(in.gcount()));
         if (text.find("brdfd-test-fail") != std::string::npos)
             throw InputError(cat(spec.filename().string(), ": test hook: failing as asked"));
-        service::write_file_atomic(results / (spec.stem().string() + ".result"), text, false);
+        const std::filesystem::path target = results / (spec.stem().string() + ".result");
+        if (write_seconds <= 0.0) {
+            service::write_file_atomic(target, text, false);
+            return;
+        }
+        static std::atomic<unsigned> counter{0};
+        const std::filesystem::path tmp =
+            results / cat(".", target.filename().string(), ".tmp.", ::getpid(), ".", counter++, ".",
+                          std::chrono::steady_clock::now().time_since_epoch().count() % 1000000);
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        if (!out) throw IoError(cat(target.string(), ": cannot create a temporary file"));
+        out << text.substr(0, text.size() / 2) << std::flush;
+        std::this_thread::sleep_for(std::chrono::duration<double>(write_seconds));
+        out << text.substr(text.size() / 2) << std::flush;
+        out.close();
+        if (!out || std::rename(tmp.c_str(), target.c_str()) != 0) {
+            std::remove(tmp.c_str());
+            throw IoError(cat(target.string(), ": cannot write"));
+        }
     };
 }
 
@@ -89,7 +121,8 @@ int main(int argc, char** argv) {
     app.add_flag("--once", options.once,
                  "drain the spool and exit: status 0 if every job succeeded, 1 if any failed");
     app.add_option("--poll", options.poll_seconds,
-                   "seconds between looks into DIR/incoming/ when idle (default 0.5)")
+                   "seconds between looks into DIR/incoming/ when idle (default 0.5); new "
+                   "specs wake idle workers at once through inotify, polling is the fallback")
         ->check(CLI::Range(0.001, 3600.0));
     app.add_option("--log-level", log_level, "error, warn, info (default) or debug")
         ->envname("BRDF_LOG");

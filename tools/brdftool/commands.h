@@ -20,5 +20,7 @@ Subcommand add_albedo_command(CLI::App& root);
 Subcommand add_convert_command(CLI::App& root);
 Subcommand add_info_command(CLI::App& root);
 Subcommand add_diff_command(CLI::App& root);
+Subcommand add_render_command(CLI::App& root);
+Subcommand add_lobes_command(CLI::App& root);
 
 } // namespace brdf::tool

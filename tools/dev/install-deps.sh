@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages brdf-service builds against, if any is missing. Idempotent and quiet
 # when everything is present; uses sudo when not root; never prompts (CI has no terminal).
+#   tools/dev/install-deps.sh          the packages needed to build and test
+#   tools/dev/install-deps.sh --fuzz   also the optional fuzzing toolchain (optional_fuzz below)
 set -euo pipefail
 
 packages=(
@@ -10,6 +12,16 @@ packages=(
   nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
 )
+
+# Optional, not installed by default: clang with libFuzzer for tools/dev/fuzz.sh (tests/fuzz,
+# -DBRDF_FUZZ=ON). Add them with: tools/dev/install-deps.sh --fuzz
+optional_fuzz=(clang-14 libclang-rt-14-dev)
+for arg in "$@"; do
+  case "$arg" in
+    --fuzz) packages+=("${optional_fuzz[@]}") ;;
+    *) echo "usage: $0 [--fuzz]" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

@@ -9,10 +9,12 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <initializer_list>
 #include <map>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <system_error>
@@ -35,6 +37,14 @@ std::string_view to_string(PhaseType type) {
     case PhaseType::Rayleigh: return "rayleigh";
     case PhaseType::HenyeyGreenstein: return "henyey_greenstein";
     case PhaseType::Legendre: return "legendre";
+    }
+    return "unknown";
+}
+
+std::string_view to_string(Model model) {
+    switch (model) {
+    case Model::Exact: return "exact";
+    case Model::Dipole: return "dipole";
     }
     return "unknown";
 }
@@ -197,6 +207,14 @@ class Checker {
     }
     /// A message that already starts with its path (the index and spectrum helpers' format).
     void fail_raw(const std::string& message) { add_line(cat(m_source, ": ", message)); }
+    /// A resource limit (SpecLimits) exceeded: reported like any problem, but a document whose only
+    /// problems are limits is refused with a LimitError (only_limits()).
+    void fail_limit(const std::string& path, const std::string& message) {
+        const std::size_t before = m_problems.size();
+        fail(path, message);
+        m_limit_problems += m_problems.size() - before;
+    }
+    bool only_limits() const { return !m_problems.empty() && m_limit_problems == m_problems.size(); }
 
     /// An unknown key, with a suggestion when it is a likely typo.
     void unknown_key(const std::string& path, std::string_view key,
@@ -273,6 +291,7 @@ class Checker {
     std::vector<std::string> m_problems;
     std::set<std::string> m_suggested;
     std::size_t m_failures = 0;
+    std::size_t m_limit_problems = 0;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -280,7 +299,9 @@ class Checker {
 
 const std::vector<std::string_view> material_keys = {
     "name", "description", "binder", "pigments", "medium", "surface", "spectrum", "accuracy",
-    "outputs"};
+    "outputs", "limits", "model"};
+const std::vector<std::string_view> limit_keys = {"max_wavelengths", "max_size_parameter",
+                                                  "min_tolerance", "max_legendre_terms"};
 const std::vector<std::string_view> pigment_keys = {"material", "index", "nk",
                                                                   "volume_fraction", "size"};
 const std::vector<std::string_view> binder_keys = {"material", "index", "nk",
@@ -333,6 +354,8 @@ class MaterialParser {
     std::optional<std::vector<std::string>> parse_outputs(const json& v, const std::string& path,
                                                           json& resolved);
     void check_ranges(const SpectralSet& spectrum, const std::vector<IndexCheck>& checks);
+    void parse_limits(const json& v, const std::string& path, json& resolved);
+    void check_size_parameters(const SpectralSet& spectrum, const MaterialSpec& spec);
 
     void warn(const std::string& path, const std::string& message) {
         m_warnings.push_back(path.empty() ? cat(c.source(), ": ", message)
@@ -343,6 +366,7 @@ class MaterialParser {
     const MaterialInput& in;
     const json& obj;
     std::vector<std::string> m_warnings;
+    SpecLimits m_limits; // parsed before the spectrum and accuracy, which they bound
 };
 
 std::optional<IndexSpec> MaterialParser::parse_constant(const json& v, const std::string& path,
@@ -930,9 +954,12 @@ std::optional<SpectralSet> MaterialParser::parse_spectrum(const json& v, const s
     }
     const json& list_json = v["wavelengths_nm"];
     if (!c.array(list_json, wpath, "of wavelengths in nm")) return std::nullopt;
-    if (list_json.size() > max_explicit_wavelengths) {
-        c.fail(wpath, cat("lists ", list_json.size(), " wavelengths, more than the limit of ",
-                          max_explicit_wavelengths));
+    if (list_json.size() > m_limits.max_wavelengths) {
+        c.fail_limit(wpath, cat("lists ", list_json.size(), " wavelengths, more than the limit of ",
+                                m_limits.max_wavelengths,
+                                " (the solve's time grows with the count); to override, set "
+                                "\"limits\": {\"max_wavelengths\": ",
+                                list_json.size(), "}"));
         return std::nullopt;
     }
     std::vector<double> wavelengths;
@@ -949,7 +976,11 @@ std::optional<SpectralSet> MaterialParser::parse_spectrum(const json& v, const s
     for (const std::string& p : problems) c.fail_raw(p);
     if (!problems.empty()) return std::nullopt;
     try {
-        SpectralSet set = SpectralSet::from_wavelengths(wavelengths, wpath);
+        // from_wavelengths keeps spectrum.h's own cap (max_explicit_wavelengths); a longer list
+        // the limits allow is integrated the same way, already checked above.
+        SpectralSet set = wavelengths.size() > max_explicit_wavelengths
+                              ? SpectralSet::integrating(wavelengths)
+                              : SpectralSet::from_wavelengths(wavelengths, wpath);
         resolved = json{{"wavelengths_nm", wavelengths}};
         return set;
     } catch (const Error& e) {
@@ -989,7 +1020,16 @@ std::optional<AccuracySpec> MaterialParser::parse_accuracy(const json& v, const 
     }
     const auto t = c.number(v["tolerance"], tpath);
     if (!t) return std::nullopt;
-    if (!(*t >= 1e-8 && *t <= 0.5)) {
+    if (*t > 0.0 && *t < m_limits.min_tolerance) {
+        c.fail_limit(tpath, cat(show(v["tolerance"]), " is below the limit of ",
+                                shortest(m_limits.min_tolerance),
+                                " (the solver's double-precision floor; streams and time grow as "
+                                "the tolerance falls); to override, set \"limits\": "
+                                "{\"min_tolerance\": ",
+                                show(v["tolerance"]), "}"));
+        return std::nullopt;
+    }
+    if (!(*t > 0.0 && *t <= 0.5)) {
         c.fail(tpath, cat("must be in [1e-8, 0.5] (a relative error; 1e-8 is near the solver's "
                           "double-precision floor) (got ",
                           show(v["tolerance"]), ")"));
@@ -1066,6 +1106,81 @@ void MaterialParser::check_ranges(const SpectralSet& spectrum,
                      data.max_nm, " nm) and use the documented extension of its dispersion "
                      "formula"));
         }
+    }
+}
+
+void MaterialParser::parse_limits(const json& v, const std::string& path, json& resolved) {
+    if (!c.object(v, path, "of resource limits (e.g. {\"max_size_parameter\": 1e6})")) return;
+    c.check_keys(v, path, limit_keys);
+    // Counts: whole numbers in [1, 1e9] (beyond that a size_t conversion means nothing here).
+    const auto count = [&](const char* key, std::size_t& out) {
+        if (!v.contains(key)) return;
+        const std::string kpath = key_path(path, key);
+        const auto x = c.number(v[key], kpath);
+        if (!x) return;
+        if (!(*x >= 1.0 && *x <= 1e9 && std::floor(*x) == *x)) {
+            c.fail(kpath, cat("must be a whole number in [1, 1e9] (got ", show(v[key]), ")"));
+            return;
+        }
+        out = static_cast<std::size_t>(*x);
+        resolved[key] = *x;
+    };
+    count("max_wavelengths", m_limits.max_wavelengths);
+    count("max_legendre_terms", m_limits.max_legendre_terms);
+    if (v.contains("max_size_parameter")) {
+        const std::string kpath = key_path(path, "max_size_parameter");
+        if (const auto x = c.number(v["max_size_parameter"], kpath)) {
+            if (!(*x > 0.0))
+                c.fail(kpath, cat("must be > 0 (got ", show(v["max_size_parameter"]), ")"));
+            else
+                m_limits.max_size_parameter = *x, resolved["max_size_parameter"] = *x;
+        }
+    }
+    if (v.contains("min_tolerance")) {
+        const std::string kpath = key_path(path, "min_tolerance");
+        if (const auto x = c.number(v["min_tolerance"], kpath)) {
+            if (!(*x > 0.0 && *x <= 0.5))
+                c.fail(kpath, cat("must be in (0, 0.5] (got ", show(v["min_tolerance"]), ")"));
+            else
+                m_limits.min_tolerance = *x, resolved["min_tolerance"] = *x;
+        }
+    }
+}
+
+// The largest Mie size parameter of each pigment, x = 2 pi r_max n_binder / lambda (the wavenumber
+// in the binder times the distribution's upper integration radius), over the spectrum. Mie series
+// need about x + 4 x^(1/3) terms per radius (Wiscombe 1980) and the ensemble integral more radius
+// nodes as x grows, so the cost rises at least as x^2.
+void MaterialParser::check_size_parameters(const SpectralSet& spectrum, const MaterialSpec& spec) {
+    if (!spec.binder || spec.pigments.empty()) return;
+    const auto digits4 = [](double x) {
+        char buffer[32];
+        std::snprintf(buffer, sizeof buffer, "%.4g", x);
+        return std::string(buffer);
+    };
+    for (std::size_t i = 0; i < spec.pigments.size(); ++i) {
+        const double r_max = spec.pigments[i].size.r_max_um();
+        double x_max = 0.0, n_at = 0.0, lambda_at = 0.0;
+        for (double lambda : spectrum.wavelengths_nm()) {
+            double n = 0.0;
+            try {
+                n = spec.binder->index.model.at(lambda).n;
+            } catch (const Error&) {
+                continue; // outside the binder's data: check_ranges reported it
+            }
+            const double x = 2.0 * std::numbers::pi * r_max * n / (1e-3 * lambda);
+            if (x > x_max) x_max = x, n_at = n, lambda_at = lambda;
+        }
+        if (x_max > m_limits.max_size_parameter)
+            c.fail_limit(
+                key_path(elem_path(in.path("pigments"), i), "size"),
+                cat("size parameter x = 2 pi r_max n_binder / lambda reaches ", std::round(x_max),
+                    " (r_max ", digits4(r_max), " um, n_binder ", digits4(n_at), " at ", lambda_at,
+                    " nm), above the limit of ",
+                    shortest(m_limits.max_size_parameter),
+                    " (Mie series need about x terms per radius); to override, set \"limits\": "
+                    "{\"max_size_parameter\": ",
+                    std::ceil(x_max), "}"));
     }
 }
 
@@ -1166,6 +1281,33 @@ std::optional<MaterialSpec> MaterialParser::parse() {
                  "unused with \"surface\": \"none\" (the index only matters for a smooth surface)");
     }
 
+    // model: "exact" (default) or "dipole"; resolved only when not the default, so that specs
+    // without it keep their hashes
+    if (obj.contains("model")) {
+        const std::string mpath = in.path("model");
+        if (const auto m = c.string(obj["model"], mpath)) {
+            if (*m == "exact") {
+                spec.model = Model::Exact;
+            } else if (*m == "dipole") {
+                spec.model = Model::Dipole;
+                resolved["model"] = "dipole";
+            } else {
+                std::string message = "must be \"exact\" or \"dipole\"";
+                const std::string guess = closest(*m, {"exact", "dipole"});
+                if (!guess.empty()) message += cat(" (did you mean \"", guess, "\"?)");
+                c.fail(mpath, cat(message, " (got ", show(obj["model"]), ")"));
+            }
+        }
+    }
+
+    // limits: before the spectrum and accuracy, which they bound; resolved only when given, so
+    // that specs without them keep their hashes
+    if (obj.contains("limits")) {
+        json r = json::object();
+        parse_limits(obj["limits"], in.path("limits"), r);
+        resolved["limits"] = r;
+    }
+
     // spectrum, accuracy, outputs
     std::optional<SpectralSet> spectrum = SpectralSet::visible();
     resolved["spectrum"] = "visible";
@@ -1209,10 +1351,12 @@ std::optional<MaterialSpec> MaterialParser::parse() {
                     {source_key(obj["pigments"][i], elem_path(in.path("pigments"), i)),
                      &spec.pigments[i].index});
         check_ranges(*spectrum, index_checks);
+        check_size_parameters(*spectrum, spec);
         spec.spectrum = std::move(*spectrum);
     }
 
     if (c.failures() != failures_before) return std::nullopt;
+    spec.limits = m_limits;
     spec.resolved = std::move(resolved);
     spec.hash = fnv1a64_hex(spec.resolved.dump());
     spec.warnings = std::move(m_warnings);
@@ -1297,6 +1441,7 @@ std::vector<MaterialSpec> parse_document(const json& document, std::string_view 
     if (!c.problems().empty()) {
         std::string message;
         for (const std::string& p : c.problems()) message += (message.empty() ? "" : "\n") + p;
+        if (c.only_limits()) throw LimitError(message);
         throw InputError(message);
     }
     std::set<std::string> logged;
@@ -1390,6 +1535,15 @@ std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_vi
                 break;
             }
         throw InputError(message);
+    } catch (const json::exception& e) {
+        // Not a syntax error but a value the parser cannot hold: a number beyond the range of a
+        // double ("1e400") is json::out_of_range 406, and carries no position. Found by fuzz_spec.
+        std::string what = e.what();
+        if (const std::size_t p = what.find("] "); what.starts_with("[json.exception.") &&
+                                                   p != std::string::npos)
+            what = what.substr(p + 2);
+        throw InputError(cat(source, ": invalid JSON: ", what,
+                             " (every number in a spec must fit in a double)"));
     }
     return parse_document(document, source, std::move(finder.problems));
 }

@@ -24,7 +24,10 @@
 //    keys (binder, pigments) and (medium) form groups: a material that gives one group does not
 //    inherit the other from the defaults.
 //  - Explicit wavelength lists follow spectrum.h (wavelength_list_problems: each in
-//    [explicit_min_nm, explicit_max_nm], strictly increasing, at most max_explicit_wavelengths).
+//    [explicit_min_nm, explicit_max_nm], strictly increasing); their count is limited by
+//    SpecLimits::max_wavelengths.
+//  - An optional "limits" object raises the resource limits (SpecLimits); it is resolved only when
+//    given, so specs without it keep their hashes.
 
 #include <brdf/material/refractive_index.h>
 #include <brdf/material/spectrum.h>
@@ -44,11 +47,16 @@ namespace brdf::material {
 
 enum class Surface { None, Smooth };
 enum class PhaseType { Isotropic, Rayleigh, HenyeyGreenstein, Legendre };
+/// Which reflection model a material is evaluated with: the exact solve (default) or the dipole
+/// diffusion comparison model of Jensen et al. 2001 (rte/dipole.h), chosen with "model": "dipole".
+enum class Model { Exact, Dipole };
 
 /// "none", "smooth".
 std::string_view to_string(Surface surface);
 /// "isotropic", "rayleigh", "henyey_greenstein", "legendre".
 std::string_view to_string(PhaseType type);
+/// "exact", "dipole".
+std::string_view to_string(Model model);
 
 /// Largest spec file load_specs reads (bytes); larger is a LimitError.
 inline constexpr std::size_t max_spec_file_bytes = 64u << 20;
@@ -95,8 +103,25 @@ struct MediumSpec {
 struct AccuracySpec {
     std::string level = "default"; ///< "draft", "default", "reference" or "custom"
     /// Relative BRDF error to meet: draft 1e-2, default 1e-4, reference 1e-6; custom in
-    /// [1e-8, 0.5].
+    /// [SpecLimits::min_tolerance (1e-8 unless raised), 0.5].
     double tolerance = 1e-4;
+};
+
+/// Resource limits: a spec whose settings would need absurd memory or time is refused with a
+/// LimitError naming the limit, unless the spec raises it explicitly with an optional "limits"
+/// object, e.g. "limits": {"max_size_parameter": 1e6}. The object is kept in the resolved spec (and
+/// so in the hash) only when given. Limits that the spec alone decides are checked by parse_specs;
+/// max_legendre_terms needs the optics and is checked by service::solve_material.
+struct SpecLimits {
+    /// Most wavelengths in the spectrum (an explicit list); the solve is linear in the count.
+    std::size_t max_wavelengths = 2000;
+    /// Largest Mie size parameter x = 2 pi r_max n_binder / lambda of any pigment at any wavelength
+    /// (r_max: the size distribution's upper integration radius); Mie series need ~x terms.
+    double max_size_parameter = 1e5;
+    /// Smallest accuracy tolerance (relative BRDF error); below 1e-8 double precision runs out.
+    double min_tolerance = 1e-8;
+    /// Longest Legendre series of a phase function (terms beta_0 .. beta_{L-1}).
+    std::size_t max_legendre_terms = 100000;
 };
 
 struct MaterialSpec {
@@ -107,9 +132,13 @@ struct MaterialSpec {
     std::vector<PigmentSpec> pigments;
     std::optional<MediumSpec> medium;
     Surface surface = Surface::Smooth;
+    /// "model": "exact" (default) | "dipole"; in the resolved spec only when not the default, so that
+    /// existing specs keep their hashes.
+    Model model = Model::Exact;
     SpectralSet spectrum = SpectralSet::visible();
     AccuracySpec accuracy;
     std::vector<std::string> outputs{"merl", "exr"}; ///< subset of "merl", "exr", in that order
+    SpecLimits limits; ///< the defaults, or those raised by the spec's "limits" object
 
     /// The spec as resolved: defaults filled in, aliases resolved, numbers as doubles, keys in
     /// canonical (sorted) order. parse_specs(resolved) gives the same material again.
@@ -130,7 +159,9 @@ struct MaterialSpec {
 /// each material, the material's own keys win). Validates everything first and throws ONE
 /// InputError whose message lists every problem, one per line, each "SOURCE: JSON.PATH: fault (got
 /// VALUE)", e.g. "spec.json: materials[1].pigments[0].size.r_eff_um: must be > 0 (got -0.2)".
-/// `source` names the document in messages (usually the file name).
+/// `source` names the document in messages (usually the file name). When every problem is a
+/// resource limit (SpecLimits) the one exception is a LimitError instead, each line naming the limit
+/// and the "limits" key that overrides it.
 std::vector<MaterialSpec> parse_specs(const nlohmann::json& document, std::string_view source);
 
 /// Parses JSON text (InputError "SOURCE:LINE:COLUMN: invalid JSON: ..." on syntax errors, which

@@ -47,7 +47,10 @@ bool already_done(const material::MaterialSpec& spec, const fs::path& dir, const
     const auto j = nlohmann::json::parse(in, nullptr, false);
     if (j.is_discarded() || j.value("spec_hash", "") != spec.hash) return false;
     return std::all_of(formats.begin(), formats.end(),
-                       [&](const std::string& f) { std::error_code ec; return fs::is_regular_file(output_path(dir, spec.name, f), ec); });
+                       [&](const std::string& f) {
+                           std::error_code ec; // a folder or a broken link in a table's place is no table
+                           return fs::is_regular_file(output_path(dir, spec.name, f), ec);
+                       });
 }
 
 MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOptions& options) {

@@ -28,6 +28,56 @@ Rgb weighted(const std::vector<Sample>& samples, auto&& value) {
     return out;
 }
 
+// Largest relative difference of the BRDF between two solves, over a spread of directions; values
+// below 1e-2 of the largest are compared on that absolute scale (their relative error is noise).
+double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
+    const double mus[] = {1.0, 0.7071, 0.2588, 0.0872};
+    const double phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
+    std::vector<std::pair<double, double>> values;
+    double largest = 0.0;
+    for (double mi : mus)
+        for (double mo : mus)
+            for (double phi : phis) {
+                values.emplace_back(a.brdf(mi, mo, phi), b.brdf(mi, mo, phi));
+                largest = std::max(largest, std::abs(values.back().second));
+            }
+    double worst = 0.0;
+    for (const auto& [x, y] : values) worst = std::max(worst, std::abs(x - y) / std::max(std::abs(y), 1e-2 * largest));
+    return worst;
+}
+
+rte::Reflection solve_one(const SpectralOptics& o, rte::ReflectionSettings rs, int streams) {
+    rs.streams = streams;
+    rte::ReflectionSetup setup = rte::setup_reflection(o.medium, rte::Interface{o.binder_index}, rs);
+    const auto problems = rte::order_problems(setup);
+    auto solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, hardware_threads());
+    return rte::Reflection(std::move(setup), std::move(solutions));
+}
+
+int choose_streams(const std::vector<SpectralOptics>& optics, const rte::ReflectionSettings& rs, const Settings& st,
+                   double& estimate) {
+    // The hardest samples: the most forward-peaked phase function and the highest albedo.
+    std::vector<std::size_t> probes;
+    std::size_t peaked = 0, bright = 0;
+    for (std::size_t k = 0; k < optics.size(); ++k) {
+        if (std::abs(optics[k].g) > std::abs(optics[peaked].g)) peaked = k;
+        if (optics[k].medium.omega > optics[bright].medium.omega) bright = k;
+    }
+    probes.push_back(peaked);
+    if (bright != peaked) probes.push_back(bright);
+    int n = st.streams;
+    for (;;) {
+        const int next = std::min(st.max_streams, (3 * n + 1) / 2);
+        if (next <= n) return n; // at the cap: keep the last estimate
+        estimate = 0.0;
+        for (std::size_t k : probes)
+            estimate = std::max(estimate, disagreement(solve_one(optics[k], rs, n), solve_one(optics[k], rs, next)));
+        if (estimate <= st.tolerance) return n;
+        log::info("streams ", n, " -> ", next, ": solutions differ by ", estimate, " (tolerance ", st.tolerance, ")");
+        n = next;
+    }
+}
+
 } // namespace
 
 SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, const std::vector<Rgb>& weights,
@@ -135,6 +185,7 @@ Settings settings_for(double tolerance) {
     s.solver_tolerance = std::clamp(1e-4 * tolerance, 1e-13, 1e-8);
     s.mie_tolerance = std::clamp(0.1 * tolerance, 1e-7, 1e-3);
     s.table_grid = tolerance >= 3e-3 ? 46 : tolerance >= 3e-5 ? 91 : 181;
+    s.max_streams = tolerance >= 3e-3 ? 32 : tolerance >= 5e-5 ? 64 : 128;
     return s;
 }
 
@@ -212,8 +263,16 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
                                  o.medium.beta.size(), "} in the spec"));
     out.seconds.optics = seconds_since(t0);
 
-    // 2. Every order of every sample in one batch.
+    // 2. Streams: the table in settings_for is calibrated on isotropic scattering without an
+    // interface. Forward-peaked phase functions (delta-M truncates more of them) and the split rule
+    // under an interface need more: check convergence on the hardest samples and grow N until two
+    // stream counts agree within the tolerance, or the cap is reached; the last difference is the
+    // reported error estimate.
     t0 = std::chrono::steady_clock::now();
+    rs.streams = choose_streams(optics, rs, st, out.error_estimate);
+    out.settings.streams = rs.streams;
+
+    // 3. Every order of every sample in one batch.
     std::vector<rte::ReflectionSetup> setups;
     std::vector<rte::OrderProblem> problems;
     for (const SpectralOptics& o : optics) {
@@ -237,7 +296,11 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
             if (!s.converged)
                 log::warn(spec.name, ": order solve did not converge (residual ", s.residual, ")");
         out.samples.push_back(Sample{optics[k].wavelength_nm, weights[k], optics[k],
-                                     rte::Reflection(std::move(setups[k]), std::move(mine))});
+                                     rte::Reflection(std::move(setups[k]), std::move(mine)), std::nullopt});
+        if (spec.model == material::Model::Dipole) {
+            const SpectralOptics& o = optics[k];
+            out.samples.back().dipole.emplace(o.medium.omega, o.g, o.binder_index, o.medium.beta);
+        }
     }
     out.seconds.solve = seconds_since(t0);
     if (!spec.medium) fit_into_gamut(out);
@@ -296,17 +359,19 @@ void fit_into_gamut(SolvedMaterial& m) {
 Rgb SolvedMaterial::brdf(double theta_i, double theta_o, double phi) const {
     const double mi = std::cos(theta_i), mo = std::cos(theta_o);
     if (mi <= 0.0 || mo <= 0.0) return {0.0, 0.0, 0.0};
-    return weighted(samples, [&](const Sample& s) { return s.reflection.brdf(mi, mo, phi); });
+    return weighted(samples, [&](const Sample& s) {
+        return s.dipole ? s.dipole->brdf(mi, mo, phi) : s.reflection.brdf(mi, mo, phi);
+    });
 }
 
 Rgb SolvedMaterial::albedo(double theta_i) const {
     const double mi = std::cos(theta_i);
-    return weighted(samples, [&](const Sample& s) { return s.reflection.albedo(mi); });
+    return weighted(samples, [&](const Sample& s) { return s.dipole ? s.dipole->albedo(mi) : s.reflection.albedo(mi); });
 }
 
 Rgb SolvedMaterial::mirror(double theta_i) const {
     const double mi = std::cos(theta_i);
-    return weighted(samples, [&](const Sample& s) { return s.reflection.mirror(mi); });
+    return weighted(samples, [&](const Sample& s) { return s.dipole ? s.dipole->mirror(mi) : s.reflection.mirror(mi); });
 }
 
 } // namespace brdf::service

@@ -4,10 +4,12 @@
 // at exact angles (brdftool eval / albedo on a spec) and the table fill both start here.
 
 #include <brdf/material/spec.h>
+#include <brdf/rte/dipole.h>
 #include <brdf/rte/reflection.h>
 #include <brdf/service/optics.h>
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,7 +22,8 @@ enum class Device { OpenCL, Cpu };
 /// Numerical settings chosen for a requested relative BRDF error (the spec's accuracy).
 struct Settings {
     double tolerance = 1e-4;
-    int streams = 32;
+    int streams = 32;               ///< starting point; grown by the convergence check up to max_streams
+    int max_streams = 64;
     double order_tolerance = 1e-5;
     double solver_tolerance = 1e-10;
     double mie_tolerance = 1e-5;
@@ -35,6 +38,10 @@ struct Sample {
     Rgb weight{};               ///< contribution to r, g, b
     SpectralOptics optics;
     rte::Reflection reflection;
+    /// Set when the spec asks for "model": "dipole": SolvedMaterial::brdf/albedo/mirror then evaluate
+    /// this comparison model (rte/dipole.h) instead of `reflection` (which is still solved, for the
+    /// report and tables).
+    std::optional<rte::Dipole> dipole;
 };
 
 struct StageSeconds {
@@ -47,6 +54,9 @@ struct SolvedMaterial {
     std::vector<Sample> samples;
     std::string device; ///< "opencl: DEVICE NAME" or "cpu"
     std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
+    /// Relative BRDF difference between the chosen stream count and the next larger one on the
+    /// hardest wavelengths: the error estimate of the solve (0 when not checked).
+    double error_estimate = 0.0;
     double gamut_scale = 1.0; ///< chroma factor applied by fit_into_gamut (1: colour already in gamut)
     StageSeconds seconds;
 

@@ -222,6 +222,10 @@ void Spool::finish(const std::string& name) {
     rename_or_throw(active() / name, done() / name);
     std::error_code ec;
     fs::remove(owner_file(name), ec);
+    // An error record without its spec is what a daemon killed inside fail() (between the record and
+    // the rename) leaves; the rerun has now succeeded, so it describes nothing. A record beside an
+    // older failed/NAME stays: it belongs to that spec.
+    if (!fs::exists(failed() / name, ec)) fs::remove(failed() / error_name(name), ec);
 }
 
 void Spool::fail(const std::string& name, const std::string& kind, const std::string& message,

@@ -51,7 +51,8 @@ public:
     /// the same name that is running there) and records the owner. Returns false, without error, when
     /// the job is gone (another daemon won) or a same-named job is active.
     bool claim(const std::string& name, const DaemonLease& owner);
-    /// active/NAME -> done/NAME; drops the owner record.
+    /// active/NAME -> done/NAME; drops the owner record, and failed/NAME.error.json when no
+    /// failed/NAME is beside it (the leftover of a daemon killed while failing this job earlier).
     void finish(const std::string& name);
     /// Writes failed/NAME.error.json {"spec", "error", "kind", "time", "seconds"}, then moves
     /// active/NAME -> failed/NAME and drops the owner record.

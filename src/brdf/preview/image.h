@@ -1,0 +1,59 @@
+#pragma once
+// Preview pictures: a linear RGB float image, the tone mapping that turns it into a display image, and
+// the one writer (OpenImageIO, atomically: temporary name in the same folder, then rename). PNG gets
+// exposure + a tone curve + the sRGB transfer function, 8 bits; EXR keeps the linear floats.
+
+#include <array>
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace brdf::preview {
+
+using Rgb = std::array<double, 3>;
+
+/// Linear Rec.709 RGB, 32-bit float, row 0 at the top, pixels interleaved r g b.
+struct Image {
+    int width = 0;
+    int height = 0;
+    std::vector<float> pixels; ///< width * height * 3 values
+
+    Image() = default;
+    Image(int w, int h, const Rgb& fill = {0.0, 0.0, 0.0});
+    float* at(int x, int y) { return pixels.data() + 3 * (static_cast<std::size_t>(y) * width + x); }
+    const float* at(int x, int y) const { return pixels.data() + 3 * (static_cast<std::size_t>(y) * width + x); }
+};
+
+enum class ToneCurve {
+    Filmic,   ///< Narkowicz's fit of the ACES filmic curve: gentle shoulder, white 1 maps to 0.8
+    Reinhard, ///< x / (1 + x) per channel
+    Clamp,    ///< min(x, 1): no curve
+};
+
+/// "filmic", "reinhard", "clamp" (InputError otherwise).
+ToneCurve parse_tone_curve(const std::string& name);
+
+struct ToneOptions {
+    double exposure = 0.0; ///< stops: values are multiplied by 2^exposure before the curve
+    ToneCurve curve = ToneCurve::Filmic;
+};
+
+/// Display value in [0, 1] (before the sRGB encoding) of a linear value.
+double tone_map(double linear, const ToneOptions& options);
+/// The sRGB transfer function (IEC 61966-2-1) of a display value in [0, 1].
+double srgb_encode(double display);
+
+enum class ImageFormat { Png, Exr };
+
+/// The format a file name asks for by its extension (.png, .exr; any case). InputError naming the
+/// file for any other extension.
+ImageFormat output_format(const std::filesystem::path& path);
+
+/// Writes `image` to `path` (format by extension, see output_format): PNG tone-mapped and sRGB
+/// encoded, 8 bits per channel; EXR linear 32-bit float, ZIP compressed. The file appears only
+/// complete: written under a temporary name in the same folder, then renamed. InputError for a bad
+/// extension, IoError when the file cannot be written.
+void write_image(const Image& image, const std::filesystem::path& path, const ToneOptions& tone = {});
+
+} // namespace brdf::preview

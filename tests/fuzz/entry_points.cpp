@@ -1,0 +1,75 @@
+#include "entry_points.h"
+
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+#include <brdf/material/spec.h>
+#include <formats/exr/exr.h>
+#include <formats/merl/merl.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <unistd.h>
+
+namespace brdf::fuzz {
+namespace {
+
+// One scratch file per process and extension, rewritten for each input and removed at exit: the
+// readers take paths, and a fuzzer runs millions of inputs, so no per-input file is created.
+class ScratchFile {
+  public:
+    explicit ScratchFile(const char* extension)
+        : m_path(std::filesystem::temp_directory_path() /
+                 ("brdf-fuzz-" + std::to_string(::getpid()) + extension)) {}
+    ~ScratchFile() {
+        std::error_code ec;
+        std::filesystem::remove(m_path, ec);
+    }
+    ScratchFile(const ScratchFile&) = delete;
+    ScratchFile& operator=(const ScratchFile&) = delete;
+
+    const std::filesystem::path& write(const std::uint8_t* data, std::size_t size) {
+        std::ofstream out(m_path, std::ios::binary | std::ios::trunc);
+        out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+        out.close();
+        if (!out) throw std::runtime_error("fuzz: cannot write " + m_path.string());
+        return m_path;
+    }
+
+  private:
+    std::filesystem::path m_path;
+};
+
+} // namespace
+
+void merl(const std::uint8_t* data, std::size_t size) {
+    static ScratchFile file(".binary");
+    formats::read_merl(file.write(data, size));
+}
+
+void exr(const std::uint8_t* data, std::size_t size) {
+    static ScratchFile file(".exr");
+    formats::read_exr(file.write(data, size));
+}
+
+void spec(const std::uint8_t* data, std::size_t size) {
+    material::parse_specs_text(std::string_view(reinterpret_cast<const char*>(data), size),
+                               "fuzz.json");
+}
+
+int run_expecting_error_or_success(void (*target)(const std::uint8_t*, std::size_t),
+                                   const std::uint8_t* data, std::size_t size) {
+    // Warnings about odd but valid input would flood the fuzzer's output.
+    static const bool quiet = (log::set_level(log::Level::Error), true);
+    (void)quiet;
+    try {
+        target(data, size);
+    } catch (const brdf::Error&) {
+        // Malformed input, refused with a message: what the readers are for.
+    }
+    return 0;
+}
+
+} // namespace brdf::fuzz

@@ -1,0 +1,92 @@
+// Inputs that once crashed, hung or leaked in a fuzzer (tests/data/fuzz/regressions, see its
+// README), replayed through the fuzzers' own entry points (tests/fuzz/entry_points.h). The file name
+// says which: "merl-*", "exr-*", "spec-*". Each must be refused with a brdf::Error or accepted;
+// another exception fails the test, a crash or sanitizer report kills it. The seed corpora
+// (tests/data/fuzz/{merl,exr,spec}) are replayed too, so the entry points themselves stay tested.
+
+#include "entry_points.h"
+
+#include <brdf/core/error.h>
+
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace brdf::fuzz {
+namespace {
+
+namespace fs = std::filesystem;
+
+using Target = void (*)(const std::uint8_t*, std::size_t);
+
+// The files of `folder` whose names start with `prefix`, sorted (so failures are reproducible).
+std::vector<fs::path> files(const fs::path& folder, const std::string& prefix = "") {
+    std::vector<fs::path> out;
+    for (const auto& entry : fs::directory_iterator(folder))
+        if (entry.is_regular_file() && entry.path().filename().string().starts_with(prefix) &&
+            entry.path().extension() != ".md")
+            out.push_back(entry.path());
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+// Runs one file; a brdf::Error or success passes, any other exception fails naming the file.
+void replay(Target target, const fs::path& file) {
+    const std::string bytes = test::read_file(file);
+    try {
+        target(reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size());
+    } catch (const Error&) {
+        // refused with a message: fine
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << file.filename() << ": escaped as a non-brdf exception: " << e.what();
+    } catch (...) {
+        ADD_FAILURE() << file.filename() << ": escaped as an unknown exception";
+    }
+}
+
+const fs::path regressions = test::source_dir() / "tests/data/fuzz/regressions";
+
+TEST(FuzzRegressions, EveryFileIsNamedAfterItsTarget) {
+    for (const fs::path& f : files(regressions)) {
+        const std::string name = f.filename().string();
+        EXPECT_TRUE(name.starts_with("merl-") || name.starts_with("exr-") ||
+                    name.starts_with("spec-"))
+            << name << ": name must start with merl-, exr- or spec-";
+    }
+}
+
+TEST(FuzzRegressions, MerlInputs) {
+    for (const fs::path& f : files(regressions, "merl-")) replay(&merl, f);
+}
+
+TEST(FuzzRegressions, ExrInputs) {
+    for (const fs::path& f : files(regressions, "exr-")) replay(&exr, f);
+}
+
+TEST(FuzzRegressions, SpecInputs) {
+    for (const fs::path& f : files(regressions, "spec-")) replay(&spec, f);
+}
+
+TEST(FuzzSeeds, EverySeedRunsThroughItsEntryPoint) {
+    const fs::path seeds = test::source_dir() / "tests/data/fuzz";
+    for (const fs::path& f : files(seeds / "merl")) replay(&merl, f);
+    for (const fs::path& f : files(seeds / "exr")) replay(&exr, f);
+    for (const fs::path& f : files(seeds / "spec")) replay(&spec, f);
+}
+
+// The entry points swallow nothing themselves: a malformed input reaches the test as a brdf::Error.
+TEST(FuzzSeeds, EntryPointsLetTheReadersErrorsThrough) {
+    const std::string junk = "not a table";
+    const auto* p = reinterpret_cast<const std::uint8_t*>(junk.data());
+    EXPECT_THROW(merl(p, junk.size()), FormatError);
+    EXPECT_THROW(exr(p, junk.size()), FormatError);
+    EXPECT_THROW(spec(p, junk.size()), InputError);
+}
+
+} // namespace
+} // namespace brdf::fuzz

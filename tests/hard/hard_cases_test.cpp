@@ -1,0 +1,93 @@
+// Hard cases of the whole model (issue "Speed against error"): albedo exactly 1 and 1 - 1e-12,
+// strongly forward- and backward-peaked phase functions, huge and tiny particles, metals, air voids
+// (m < 1), a narrow size distribution at a resonance, and grazing / normal directions. Each must be
+// finite, non-negative and reciprocal, conserve energy within bounds, and agree with a run at
+// tighter settings within the tolerance the settings promise.
+
+#include <brdf/material/spec.h>
+#include <brdf/service/model.h>
+#include <test_support.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace brdf::test {
+namespace {
+
+struct HardCase {
+    const char* name;
+    const char* spec; // JSON; accuracy is set by the test
+    double agreement; // relative agreement required between "default" and "reference"
+};
+
+// Radii give size parameters x = 2 pi r n_binder / lambda at 550 nm in a binder of index 1.5.
+const HardCase cases[] = {
+    {"albedo-one-isotropic", R"({"medium": {"albedo": 1}})", 1e-4},
+    {"albedo-one-minus-1e-12", R"({"medium": {"albedo": 0.999999999999, "phase": {"type": "henyey_greenstein", "g": 0.5}}})", 1e-4},
+    {"hg-0.99", R"({"medium": {"albedo": 0.95, "phase": {"type": "henyey_greenstein", "g": 0.99}}})", 1e-3},
+    {"hg-minus-0.9", R"({"medium": {"albedo": 0.95, "phase": {"type": "henyey_greenstein", "g": -0.9}}})", 1e-3},
+    {"mie-x-1e-3", R"({"binder": {"index": 1.5}, "pigments": [{"material": {"index": "2.7"}, "volume_fraction": 0.1,
+        "size": {"distribution": "monodisperse", "radius_um": 0.0000584}}]})", 1e-4},
+    {"mie-x-1e3", R"({"binder": {"index": 1.5}, "pigments": [{"material": {"index": "1.6+0.0001i"}, "volume_fraction": 0.1,
+        "size": {"distribution": "monodisperse", "radius_um": 58.4}}]})", 1e-3},
+    {"mie-x-1e4", R"({"binder": {"index": 1.5}, "pigments": [{"material": {"index": "1.6+0.00001i"}, "volume_fraction": 0.1,
+        "size": {"distribution": "monodisperse", "radius_um": 584}}]})", 1e-3},
+    {"gold-metal", R"({"binder": {"index": 1.5}, "pigments": [{"material": "gold", "volume_fraction": 0.01,
+        "size": {"distribution": "monodisperse", "radius_um": 0.5}}]})", 1e-4},
+    {"air-voids-m-below-1", R"({"binder": {"index": 1.5}, "pigments": [{"material": {"index": "1.0"}, "volume_fraction": 0.2,
+        "size": {"distribution": "lognormal", "r_g_um": 0.3, "sigma_g": 1.3}}]})", 1e-4},
+    {"narrow-resonance", R"({"binder": {"index": 1.0}, "pigments": [{"material": {"index": "1.5"}, "volume_fraction": 0.05,
+        "size": {"distribution": "gamma", "r_eff_um": 1.0, "v_eff": 0.001}}]})", 1e-3},
+};
+
+material::MaterialSpec make_spec(const HardCase& c, const char* accuracy) {
+    auto j = nlohmann::json::parse(c.spec);
+    j["name"] = "hard";
+    j["accuracy"] = accuracy;
+    if (!j.contains("medium")) j["spectrum"] = {{"wavelengths_nm", {550.0}}};
+    return material::parse_specs(j, c.name).at(0);
+}
+
+constexpr double deg = std::numbers::pi / 180.0;
+const double zeniths[] = {0.0, 30.0 * deg, 60.0 * deg, 85.0 * deg, 89.99 * deg};
+const double azimuths[] = {0.0, 90.0 * deg, 180.0 * deg};
+
+class Hard : public ::testing::TestWithParam<HardCase> {};
+
+TEST_P(Hard, FiniteReciprocalConservingAndConverged) {
+    const HardCase& c = GetParam();
+    const service::SolvedMaterial m = service::solve_material(make_spec(c, "default"), service::Device::Cpu);
+    const service::SolvedMaterial ref = service::solve_material(make_spec(c, "reference"), service::Device::Cpu);
+    double worst = 0.0;
+    for (double ti : zeniths)
+        for (double to : zeniths)
+            for (double phi : azimuths) {
+                const auto f = m.brdf(ti, to, phi), g = m.brdf(to, ti, phi), r = ref.brdf(ti, to, phi);
+                for (int k = 0; k < 3; ++k) {
+                    ASSERT_TRUE(std::isfinite(f[k]) && f[k] >= 0.0) << c.name << " " << ti << " " << to << " " << phi;
+                    EXPECT_NEAR(f[k], g[k], 1e-10 * std::max(1.0, f[k])) << c.name << ": reciprocity";
+                    // Where the reference is tiny the comparison is absolute (1e-3 of a white Lambertian).
+                    worst = std::max(worst, std::abs(f[k] - r[k]) / std::max(r[k], 1e-3 / std::numbers::pi));
+                }
+            }
+    EXPECT_LE(worst, c.agreement) << c.name << ": default vs reference";
+    for (double ti : zeniths) {
+        const auto a = m.albedo(ti), s = m.mirror(ti);
+        for (int k = 0; k < 3; ++k) {
+            EXPECT_GE(a[k], -1e-12) << c.name;
+            EXPECT_LE(a[k] + s[k], 1.0 + 1e-9) << c.name << " theta_i " << ti;
+        }
+    }
+    std::printf("%-24s default vs reference %.2e (required %.0e)\n", c.name, worst, c.agreement);
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, Hard, ::testing::ValuesIn(cases),
+                         [](const auto& info) {
+                             std::string n = info.param.name;
+                             for (char& ch : n)
+                                 if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                             return n;
+                         });
+
+} // namespace
+} // namespace brdf::test

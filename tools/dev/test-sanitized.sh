@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Builds the project with AddressSanitizer + UBSan and runs the test suite under them:
+#   tools/dev/test-sanitized.sh [CTEST ARGS...]      (default: -LE slow)
+# Build folder: build-asan (BUILD to change), RelWithDebInfo, -DBRDF_SANITIZE=address,undefined.
+# Tests get LSAN_OPTIONS with tools/dev/lsan.supp (OpenCL/PoCL/LLVM leaks) from CMake
+# (cmake/BrdfTesting.cmake); it is exported here as well, so that gtest's test discovery and any
+# binary run by hand see the same suppressions. Exits with ctest's status (CI can call it).
+# Environment: JOBS (build parallelism, default 1), CTEST_JOBS (default 2), BUILD.
+set -euo pipefail
+
+root="$(cd "$(dirname "$0")/../.." && pwd)"
+build="${BUILD:-$root/build-asan}"
+args=("$@")
+[ ${#args[@]} -eq 0 ] && args=(-LE slow)
+
+cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DBRDF_SANITIZE=address,undefined -DBRDF_BUILD_BENCH=OFF
+cmake --build "$build" -j "${JOBS:-1}"
+
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/tools/dev/lsan.supp:print_suppressions=0}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+cd "$build"
+ctest --output-on-failure -j "${CTEST_JOBS:-2}" "${args[@]}"
