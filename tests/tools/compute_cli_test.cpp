@@ -103,6 +103,17 @@ TEST(ComputeCli, BadSpecWritesNothingAndNamesEveryFault) {
     EXPECT_FALSE(fs::exists(dir / "out/a.binary"));
 }
 
+TEST(ComputeCli, PreviewWritesASphereRendering) {
+    TempDir dir;
+    write_file(dir / "p.json", R"({"name": "p", "medium": {"albedo": 0.8}, "accuracy": "draft", "outputs": ["exr"]})");
+    const ProcessResult r = run_tool("brdftool", {"compute", (dir / "p.json").string(), "-o", (dir / "out").string(),
+                                                  "--device", "cpu", "--preview"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string png = read_file(dir / "out/p.png");
+    ASSERT_GT(png.size(), 100u);
+    EXPECT_EQ(png.substr(1, 3), "PNG");
+}
+
 TEST(ComputeCli, ShardFlagIsValidated) {
     TempDir dir;
     write_file(dir / "s.json", R"({"name": "s", "medium": {"albedo": 0.5}})");

@@ -7,6 +7,7 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/parse.h>
+#include <brdf/preview/preview.h>
 #include <brdf/service/compute.h>
 
 #include <cstdio>
@@ -21,6 +22,7 @@ struct ComputeFlags {
     std::vector<std::string> formats;
     std::string shard;
     int jobs = 1;
+    bool preview = false;
     DeviceFlag device;
 };
 
@@ -42,6 +44,7 @@ int run_compute(const ComputeFlags& f) {
     options.jobs = f.jobs;
     options.progress = isatty(STDERR_FILENO);
     if (!f.shard.empty()) parse_shard(f.shard, options);
+    if (f.preview) options.preview = preview::write_preview;
     std::vector<std::filesystem::path> files(f.specs.begin(), f.specs.end());
     const auto outcomes = service::compute_files(files, options);
     int failed = 0, skipped = 0;
@@ -68,6 +71,7 @@ Subcommand add_compute_command(CLI::App& root) {
         ->delimiter(',')
         ->check(CLI::IsMember({"merl", "exr"}));
     app->add_option("--shard", flags->shard, "I/N: compute materials I, I+N, I+2N, ... (cluster job arrays)");
+    app->add_flag("--preview", flags->preview, "also write DIR/NAME.png, a sphere rendering of each material");
     app->add_option("--jobs", flags->jobs, "materials computed at once (default 1)")->check(CLI::Range(1, 256));
     flags->device.add_to(*app);
     return {app, [flags] { return run_compute(*flags); }};

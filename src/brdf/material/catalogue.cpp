@@ -2,6 +2,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/text.h>
 #include <brdf/material/embedded_data.h>
 
 #include <algorithm>
@@ -408,37 +409,18 @@ const std::vector<CatalogueEntry>& entries() {
     return all;
 }
 
-std::string lower(std::string_view s) {
-    std::string out(s);
-    for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return out;
-}
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diagonal = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t up = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
-            diagonal = up;
-        }
-    }
-    return row[b.size()];
-}
 
 // Up to three IDs or aliases close to `id`: equal ignoring case, containing it or contained in it
 // (3 characters or more), or within an edit distance of about a quarter of its length.
 std::vector<std::string_view> close_ids(std::string_view id) {
-    const std::string query = lower(id);
+    const std::string query = ascii_lower(id);
     std::vector<std::pair<std::size_t, std::string_view>> scored;
     for (const CatalogueEntry& e : entries()) {
         std::vector<std::string_view> names{e.id};
         names.insert(names.end(), e.aliases.begin(), e.aliases.end());
         for (std::string_view name : names) {
-            const std::string candidate = lower(name);
+            const std::string candidate = ascii_lower(name);
             const std::size_t distance = edit_distance(query, candidate);
             const bool contains =
                 query.size() >= 3 && (candidate.find(query) != std::string::npos ||

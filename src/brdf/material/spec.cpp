@@ -2,6 +2,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/text.h>
 #include <brdf/core/parse.h>
 #include <brdf/material/catalogue.h>
 
@@ -136,35 +137,15 @@ const char* type_name(const json& v) {
     }
 }
 
-std::string lower(std::string_view s) {
-    std::string out(s);
-    for (char& c : out)
-        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    return out;
-}
 
-std::size_t edit_distance(std::string_view a, std::string_view b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diagonal = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t up = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1])});
-            diagonal = up;
-        }
-    }
-    return row[b.size()];
-}
 
 // The closest of `known` to `key` when close enough to be a typo, else "".
 std::string closest(std::string_view key, const std::vector<std::string_view>& known) {
-    const std::string query = lower(key);
+    const std::string query = ascii_lower(key);
     std::string best;
     std::size_t best_distance = std::string::npos;
     for (std::string_view k : known) {
-        const std::string candidate = lower(k);
+        const std::string candidate = ascii_lower(k);
         // A prefix of at least 3 characters ("r_eff" for "r_eff_um", "absorption" for
         // "absorption_per_mm") is the likeliest intent, ahead of any edit distance.
         const bool prefix = std::min(query.size(), candidate.size()) >= 3 &&
@@ -1423,7 +1404,7 @@ std::vector<MaterialSpec> parse_document(const json& document, std::string_view 
                 if (m.contains("name") && m["name"].is_string()) {
                     const std::string name = m["name"].get<std::string>();
                     const std::string npath = key_path(base, "name");
-                    const auto [it, inserted] = names.emplace(lower(name), npath);
+                    const auto [it, inserted] = names.emplace(ascii_lower(name), npath);
                     if (!inserted)
                         c.fail(npath, cat("duplicate name (also at ", it->second,
                                           "; names must be unique, ignoring case, because they "

@@ -1,6 +1,6 @@
 #include <brdf/preview/render.h>
 
-#include "parallel.h"
+#include <brdf/core/threads.h>
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
@@ -107,7 +107,7 @@ public:
         m_values.resize(static_cast<std::size_t>(nt) * nt * np);
         m_step = 0.5 * pi / nt;
         // Reciprocity: f(ti, to, phi) = f(to, ti, phi); fill i <= o and copy.
-        detail::parallel_for(nt, threads, [&](int i) {
+        parallel_for(nt, threads, [&](int i) {
             for (int o = i; o < nt; ++o)
                 for (int p = 0; p < np; ++p) {
                     const double phi = np > 1 ? pi * p / (np - 1) : 0.0;
@@ -225,7 +225,7 @@ Image render_sphere(const BrdfFunction& brdf_in, const RenderOptions& o) {
     const int ss = o.supersample;
     const double sub_weight = 1.0 / (ss * ss);
 
-    detail::parallel_for(o.size, o.threads, [&](int py) {
+    parallel_for(o.size, o.threads, [&](int py) {
         for (int px = 0; px < o.size; ++px) {
             Rgb sum{0.0, 0.0, 0.0};
             double covered = 0.0, cx = 0.0, cy = 0.0;

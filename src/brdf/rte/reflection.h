@@ -69,8 +69,11 @@ public:
 
     /// The multiply scattered part on a set of cosines in air, for tables: row a = outgoing.
     OrderGrid order_grid(std::span<const double> mu_air) const;
-    /// Single scattering with the full phase function at internal cosines (no interface factors).
+    /// Single scattering with the full phase function at internal cosines (no interface factors),
+    /// with the TMS albedo below.
     double single_scattering(double u_o, double u_i, double phi) const;
+    /// omega / (1 - f omega): the albedo of the exact single-scattering term under delta-M (TMS).
+    double single_scattering_albedo() const;
     /// T(mu_o) T(mu_i) / n^2 with 1/pi: turns internal R into the external BRDF.
     double transmission_factor(double mu_o, double mu_i) const;
     /// Internal cosine for a cosine in air (identity without an interface).

@@ -9,6 +9,7 @@
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/threads.h>
 #include <formats/halfdiff.h>
 
 #include <shared/table_fill_layout.h>
@@ -123,7 +124,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
 
 formats::BrdfTable fill_table(const FillInputs& in, Device device) {
     if (device == Device::OpenCL) return fill_table_opencl(in);
-    return fill_table_cpu(in, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    return fill_table_cpu(in, available_cpus());
 }
 
 } // namespace brdf::service

@@ -3,6 +3,7 @@
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/threads.h>
 #include <brdf/core/version.h>
 #include <brdf/material/spec.h>
 #include <brdf/service/model.h>
@@ -18,7 +19,6 @@
 #include <future>
 #include <mutex>
 #include <optional>
-#include <thread>
 #include <unistd.h>
 
 namespace brdf::service {
@@ -89,6 +89,11 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     }
     for (auto& w : writes) w.get(); // rethrows a writer's error
     solved.seconds.write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+    if (options.preview) {
+        const fs::path png = options.output_dir / (spec.name + ".png");
+        options.preview(solved, png);
+        outcome.outputs.push_back(png);
+    }
     const fs::path report = options.output_dir / (spec.name + ".report.json");
     write_text_atomically(report, make_report(solved, formats).dump(1) + "\n");
     outcome.outputs.push_back(report);
@@ -121,32 +126,26 @@ std::vector<MaterialOutcome> compute_files(const std::vector<fs::path>& specs, c
     if (ec) throw IoError(cat(options.output_dir.string(), ": cannot create output folder (", ec.message(), ")"));
 
     std::vector<MaterialOutcome> outcomes(jobs.size());
-    std::atomic<std::size_t> next{0}, finished{0};
+    std::atomic<std::size_t> finished{0};
     std::mutex print;
     const bool tty = options.progress && isatty(STDERR_FILENO);
-    auto worker = [&] {
-        for (std::size_t k = next++; k < jobs.size(); k = next++) {
-            const material::MaterialSpec& spec = jobs[k].spec;
-            try {
-                outcomes[k] = compute_one(spec, options);
-            } catch (const Error& e) {
-                outcomes[k] = MaterialOutcome{spec.name, false, false, e.what(), e.kind(), {}, 0.0};
-            } catch (const std::exception& e) {
-                outcomes[k] = MaterialOutcome{spec.name, false, false, cat("internal error: ", e.what()), ErrorKind::Numerical, {}, 0.0};
-            }
-            const std::size_t done = ++finished;
-            std::lock_guard lock(print);
-            const MaterialOutcome& o = outcomes[k];
-            if (!o.ok) log::error(o.name, ": ", o.error);
-            else if (tty) std::fprintf(stderr, "\r[%zu/%zu] %-40s %6.2f s\n", done, jobs.size(), o.name.c_str(), o.seconds);
-            else log::info("[", done, "/", jobs.size(), "] ", o.name, o.skipped ? " skipped" : " done", " in ", o.seconds, " s");
+    parallel_for(static_cast<int>(jobs.size()), std::max(1, options.jobs), [&](int k) {
+        const material::MaterialSpec& spec = jobs[k].spec;
+        try {
+            outcomes[k] = compute_one(spec, options);
+        } catch (const Error& e) {
+            outcomes[k] = MaterialOutcome{spec.name, false, false, e.what(), e.kind(), {}, 0.0};
+        } catch (const std::exception& e) {
+            outcomes[k] = MaterialOutcome{spec.name, false, false, cat("internal error: ", e.what()),
+                                          ErrorKind::Numerical, {}, 0.0};
         }
-    };
-    const int threads = std::clamp(options.jobs, 1, static_cast<int>(std::max<std::size_t>(1, jobs.size())));
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-    worker();
-    for (auto& th : pool) th.join();
+        const std::size_t done = ++finished;
+        std::lock_guard lock(print);
+        const MaterialOutcome& o = outcomes[k];
+        if (!o.ok) log::error(o.name, ": ", o.error);
+        else if (tty) std::fprintf(stderr, "\r[%zu/%zu] %-40s %6.2f s\n", done, jobs.size(), o.name.c_str(), o.seconds);
+        else log::info("[", done, "/", jobs.size(), "] ", o.name, o.skipped ? " skipped" : " done", " in ", o.seconds, " s");
+    });
     return outcomes;
 }
 

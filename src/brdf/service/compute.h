@@ -6,6 +6,7 @@
 #include <brdf/service/model.h>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,9 @@ struct ComputeOptions {
     int shard_count = 1;
     int jobs = 1;                      ///< materials computed concurrently
     bool progress = false;             ///< progress bar on stderr
+    /// When set, called for each computed material with DIR/NAME.png (brdftool compute --preview
+    /// passes preview::write_preview; the service does not depend on the preview library).
+    std::function<void(const SolvedMaterial&, const std::filesystem::path&)> preview;
 };
 
 struct MaterialOutcome {

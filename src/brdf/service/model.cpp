@@ -3,12 +3,12 @@
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/threads.h>
 #include <brdf/rte/cl_solver.h>
 
 #include <chrono>
 #include <numbers>
 #include <cmath>
-#include <thread>
 
 namespace brdf::service {
 namespace {
@@ -16,8 +16,6 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
-
-int hardware_threads() { return std::max(1u, std::thread::hardware_concurrency()); }
 
 Rgb weighted(const std::vector<Sample>& samples, auto&& value) {
     Rgb out{0.0, 0.0, 0.0};
@@ -50,7 +48,7 @@ rte::Reflection solve_one(const SpectralOptics& o, rte::ReflectionSettings rs, i
     rs.streams = streams;
     rte::ReflectionSetup setup = rte::setup_reflection(o.medium, rte::Interface{o.binder_index}, rs);
     const auto problems = rte::order_problems(setup);
-    auto solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, hardware_threads());
+    auto solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, available_cpus());
     return rte::Reflection(std::move(setup), std::move(solutions));
 }
 
@@ -225,21 +223,8 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
         const auto rgb = spec.spectrum.rgb_weights();
         optics.resize(wavelengths.size());
         // Wavelengths are independent: split them over the cores.
-        const int threads = std::min<int>(hardware_threads(), static_cast<int>(wavelengths.size()));
-        std::vector<std::exception_ptr> errors(static_cast<std::size_t>(threads));
-        std::vector<std::thread> pool;
-        for (int t = 0; t < threads; ++t)
-            pool.emplace_back([&, t] {
-                try {
-                    for (std::size_t k = t; k < wavelengths.size(); k += threads)
-                        optics[k] = particulate_optics(spec, wavelengths[k], st.mie_tolerance);
-                } catch (...) {
-                    errors[t] = std::current_exception();
-                }
-            });
-        for (auto& th : pool) th.join();
-        for (auto& e : errors)
-            if (e) std::rethrow_exception(e);
+        parallel_for(static_cast<int>(wavelengths.size()), available_cpus(),
+                     [&](int k) { optics[k] = particulate_optics(spec, wavelengths[k], st.mie_tolerance); });
         if (spec.surface == material::Surface::None)
             for (auto& o : optics) o.binder_index = 1.0;
         std::vector<Rgb> all(rgb.begin(), rgb.end());
@@ -271,6 +256,10 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     t0 = std::chrono::steady_clock::now();
     rs.streams = choose_streams(optics, rs, st, out.error_estimate);
     out.settings.streams = rs.streams;
+    if (out.error_estimate > st.tolerance)
+        log::warn(spec.name, ": accuracy not reached at the stream cap (", st.max_streams, "): estimated error ",
+                  out.error_estimate, " > tolerance ", st.tolerance,
+                  " (a phase function too peaked for delta-M at this cost; see the report)");
 
     // 3. Every order of every sample in one batch.
     std::vector<rte::ReflectionSetup> setups;
@@ -286,7 +275,7 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
         solutions = rte::solve_orders_opencl(problems, rs.method, rs.control);
     } else {
         out.device = "cpu";
-        solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, hardware_threads());
+        solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, available_cpus());
     }
     std::size_t next = 0;
     for (std::size_t k = 0; k < setups.size(); ++k) {

@@ -70,6 +70,7 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
         {"error_estimate",
          {{"requested_tolerance", m.settings.tolerance},
           {"solver_estimate", m.error_estimate},
+          {"tolerance_met", m.error_estimate <= m.settings.tolerance},
           {"note", "solver_estimate: relative BRDF difference between the chosen stream count and "
                    "1.5 times as many on the hardest wavelengths (docs/quadrature-study.md); tables "
                    "add their binning error"}}},

@@ -2,12 +2,12 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/threads.h>
 #include <brdf/rte/phase.h>
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <thread>
 
 namespace brdf::service {
 namespace {
@@ -63,22 +63,8 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
     in.phase.resize(static_cast<std::size_t>(in.samples) * in.phase_points);
     // The Nystrom grids are the expensive part and independent per sample: one thread per core.
     std::vector<rte::OrderGrid> grids(material.samples.size());
-    {
-        const int threads = std::max(1, std::min<int>(static_cast<int>(std::thread::hardware_concurrency()), in.samples));
-        std::vector<std::thread> pool;
-        std::vector<std::exception_ptr> errors(static_cast<std::size_t>(threads));
-        for (int t = 0; t < threads; ++t)
-            pool.emplace_back([&, t] {
-                try {
-                    for (std::size_t k = t; k < grids.size(); k += threads) grids[k] = material.samples[k].reflection.order_grid(mu);
-                } catch (...) {
-                    errors[t] = std::current_exception();
-                }
-            });
-        for (auto& th : pool) th.join();
-        for (auto& error : errors)
-            if (error) std::rethrow_exception(error);
-    }
+    parallel_for(in.samples, available_cpus(),
+                 [&](int k) { grids[k] = material.samples[k].reflection.order_grid(mu); });
     std::vector<double> factor_oi(static_cast<std::size_t>(e) * e);
     for (int k = 0; k < in.samples; ++k) {
         const Sample& s = material.samples[k];
@@ -100,7 +86,7 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
         for (int p = 0; p < in.phase_points; ++p) {
             const double x = static_cast<double>(p) / (in.phase_points - 1); // sin(Theta / 2)
             in.phase[static_cast<std::size_t>(k) * in.phase_points + p] =
-                0.25 * medium.omega * rte::phase_value(medium.beta, 1.0 - 2.0 * x * x);
+                0.25 * r.single_scattering_albedo() * rte::phase_value(medium.beta, 1.0 - 2.0 * x * x);
         }
         in.index.push_back(r.setup().interface.n);
         for (int p = 0; p < fresnel_table_points; ++p)
@@ -155,25 +141,20 @@ Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi)
 
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
     formats::BrdfTable table;
-    const std::size_t cells = table.channels[0].size();
-    const int nt = std::max(1, threads);
-    std::vector<std::thread> pool;
-    for (int t = 0; t < nt; ++t) {
-        pool.emplace_back([&, t] {
-            for (std::size_t cell = t; cell < cells; cell += nt) {
-                if (formats::cell_below_horizon(cell)) continue;
-                const formats::CellIndices ix = formats::cell_indices(cell);
-                const formats::DirectionPair d =
-                    formats::to_directions(formats::theta_h_centre(ix.theta_h), formats::theta_d_centre(ix.theta_d),
-                                           formats::phi_d_centre(ix.phi_d));
-                const double theta_i = std::acos(std::clamp(d.wi.z, -1.0, 1.0));
-                const double theta_o = std::acos(std::clamp(d.wo.z, -1.0, 1.0));
-                const double phi = std::atan2(d.wo.y, d.wo.x) - std::atan2(d.wi.y, d.wi.x);
-                table.set(cell, fill_value(in, theta_i, theta_o, phi));
-            }
-        });
-    }
-    for (auto& th : pool) th.join();
+    // Rows of 180 cells (one theta_h, theta_d pair) per work item: the same split as the kernel's.
+    const int rows = static_cast<int>(table.channels[0].size() / 180);
+    parallel_for(rows, threads, [&](int row) {
+        for (std::size_t cell = static_cast<std::size_t>(row) * 180; cell < static_cast<std::size_t>(row + 1) * 180; ++cell) {
+            if (formats::cell_below_horizon(cell)) continue;
+            const formats::CellIndices ix = formats::cell_indices(cell);
+            const formats::DirectionPair d = formats::to_directions(
+                formats::theta_h_centre(ix.theta_h), formats::theta_d_centre(ix.theta_d), formats::phi_d_centre(ix.phi_d));
+            const double theta_i = std::acos(std::clamp(d.wi.z, -1.0, 1.0));
+            const double theta_o = std::acos(std::clamp(d.wo.z, -1.0, 1.0));
+            const double phi = std::atan2(d.wo.y, d.wo.x) - std::atan2(d.wi.y, d.wi.x);
+            table.set(cell, fill_value(in, theta_i, theta_o, phi));
+        }
+    });
     return table;
 }
 
