@@ -12,7 +12,12 @@ DeltaM delta_m(const Medium& medium, int first_dropped) {
     const int size = static_cast<int>(medium.beta.size());
     if (first_dropped < 1) throw InputError(cat("delta-M: truncation order must be >= 1 (got ", first_dropped, ")"));
     if (size <= first_dropped) return DeltaM{medium, 0.0};
-    const double f = medium.beta[first_dropped] / (2.0 * first_dropped + 1.0);
+    double f = medium.beta[first_dropped] / (2.0 * first_dropped + 1.0);
+    // Delta-M removes a forward peak. A backward-peaked phase function (g < 0) has none: there f only
+    // picks up the alternating tail of its moments, and taking it out would put a spurious negative
+    // forward lobe in and mis-scale the single scattering (measured: tests/hard, HG g = -0.9).
+    // Plain truncation is used instead; the exact single scattering is still added back.
+    if (f <= 0.0 || medium.beta[1] < 0.0) f = 0.0;
     DeltaM out;
     out.f = f;
     out.scaled.omega = medium.omega * (1.0 - f) / (1.0 - medium.omega * f);
