@@ -14,6 +14,7 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "shared/ambartsumian_layout.h"
+#include "shared/ambartsumian_setup.h"
 
 #define DOUBLING_STEPS 100
 
@@ -232,18 +233,7 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
             for (int i = 0; i < n; ++i) ev1 += 2.0 * w[i] * mu[i];
         for (int i = 0; i < n; ++i) {
             for (int j = 0; j < n; ++j) {
-                const int q = i * n + j;
-                double bij = 0.25 * om * pm[q] / (mu[i] * mu[j]);
-                double dij = (i == j ? 1.0 / mu[i] : 0.0) - 0.5 * om * w[i] * pp[q] / mu[j];
-                const double aij = (i == j ? 1.0 / mu[j] : 0.0) - 0.5 * om * w[j] * pp[j * n + i] / mu[i];
-                if (conservative) { // rank-one shift along the conservation null vector, eta = 1
-                    dij += 1.0 * (2.0 * w[i] * mu[i]) / ev1;
-                    bij += 1.0 / ev1;
-                }
-                bb[q] = bij;
-                cc[q] = om * w[i] * pm[q] * w[j];
-                ag[q] = aij + (i == j ? g * 1.0 : g * 0.0);
-                dg[q] = dij + (i == j ? g * 1.0 : g * 0.0);
+                amb_doubling_element(i, j, n, om, g, conservative, ev1, mu, w, pp, pm, bb, cc, ag, dg);
             }
         }
         int bad = -1;
