@@ -39,10 +39,12 @@ ReflectionSetup setup_reflection(const Medium& medium, const Interface& interfac
     s.interface = interface;
     if (interface.present()) {
         // Split at the critical cosine so that each piece integrates the smooth part of the
-        // integrand; total internal reflection switches on exactly at the split.
-        const double mc = interface.critical();
-        const int below = std::clamp(static_cast<int>(std::lround(settings.streams * mc)), 1, settings.streams - 1);
-        s.streams = split_gauss_streams(below, settings.streams - below, mc);
+        // integrand; total internal reflection switches on exactly at the split. Half the nodes on
+        // each side: delta-M must truncate at twice the smaller piece to keep conservation exact,
+        // and that truncation, not the nodes' spread, limits the accuracy (rutile in acrylic,
+        // 32 streams: 1.2e-4 with halves against 1.0e-3 with nodes in proportion to the lengths).
+        const int below = settings.streams / 2;
+        s.streams = split_gauss_streams(below, settings.streams - below, interface.critical());
     } else {
         s.streams = gauss_streams(settings.streams);
     }
