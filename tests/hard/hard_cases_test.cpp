@@ -103,3 +103,36 @@ INSTANTIATE_TEST_SUITE_P(Cases, Hard, ::testing::ValuesIn(cases),
 
 } // namespace
 } // namespace brdf::test
+
+namespace brdf::test {
+namespace {
+
+// The same honesty check on the example catalogue ("rgb" spectrum to keep it quick): where a draft
+// solve says it met its tolerance, a default solve agrees within 3 times that tolerance.
+TEST(HardCatalogue, ErrorEstimateIsHonestOnTheExampleCatalogue) {
+    auto doc = nlohmann::json::parse(read_file(source_dir() / "examples/catalogue.json"));
+    for (auto& m : doc["materials"]) m["spectrum"] = "rgb";
+    for (const auto& base : material::parse_specs(doc, "catalogue.json")) {
+        nlohmann::json one = base.resolved;
+        one["accuracy"] = "draft";
+        const auto draft = service::solve_material(material::parse_specs(one, base.name).at(0), service::Device::Cpu);
+        one["accuracy"] = "default";
+        const auto fine = service::solve_material(material::parse_specs(one, base.name).at(0), service::Device::Cpu);
+        double worst = 0.0;
+        for (double ti : {0.0, 30.0 * deg, 60.0 * deg, 85.0 * deg})
+            for (double to : {0.0, 30.0 * deg, 60.0 * deg, 85.0 * deg})
+                for (double phi : {0.0, 90.0 * deg, 180.0 * deg}) {
+                    const auto a = draft.brdf(ti, to, phi), b = fine.brdf(ti, to, phi);
+                    for (int k = 0; k < 3; ++k)
+                        worst = std::max(worst, std::abs(a[k] - b[k]) / std::max(b[k], 1e-3 / std::numbers::pi));
+                }
+        std::printf("%-22s draft streams %2d estimate %.1e, draft vs default %.2e\n", base.name.c_str(),
+                    draft.settings.streams, draft.error_estimate, worst);
+        if (draft.error_estimate <= draft.settings.tolerance) {
+            EXPECT_LE(worst, 3.0 * draft.settings.tolerance) << base.name;
+        }
+    }
+}
+
+} // namespace
+} // namespace brdf::test
