@@ -8,6 +8,8 @@
 //                                    kernel, 2 OpenCL serial kernel (one launch for all orders,
 //                                    rte::ClSolverKernel); omega index 0, 1, 2 = 0.9, 0.99999, 1.
 //                                    Counters: orders, total iterations over the orders.
+//   BM_Order/method/m/omega          one order (C++ reference), m = 0, 1, 4, 16: time and iterations.
+// Iterations stop at the "default" accuracy's tolerance (1e-8 relative change).
 // The fixed point at omega -> 1 runs to SolveControl's default cap (100000 sweeps) at m = 0: it is the
 // baseline the doubling replaces, and slow on purpose.
 
@@ -26,6 +28,8 @@ namespace {
 using namespace brdf::rte;
 
 constexpr double omegas[] = {0.9, 0.99999, 1.0};
+// The iteration tolerance of "default" accuracy (service/model.cpp, settings_for(1e-4)).
+constexpr double default_tolerance = 1e-8;
 
 std::vector<OrderProblem> medium_problems(double omega) {
     std::vector<double> beta(200);
@@ -48,7 +52,8 @@ void BM_Medium(benchmark::State& state) {
         return;
     }
     const std::vector<OrderProblem> problems = medium_problems(omega);
-    const SolveControl control;
+    SolveControl control;
+    control.tolerance = default_tolerance;
     if (opencl) solve_orders_opencl(problems, method, control, kernel); // build the program outside the timing
     long iterations = 0;
     for (auto _ : state) {
@@ -66,6 +71,33 @@ BENCHMARK(BM_Medium)
     ->ArgNames({"method", "opencl", "omega"})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
+
+// One Fourier order at a time (C++ reference): where the time goes. m = 0 is the slow order for the
+// fixed point as omega -> 1; m >= 1 converge in a few sweeps, which the fast method exploits.
+void BM_Order(benchmark::State& state) {
+    const auto method = static_cast<Method>(state.range(0));
+    const int m = static_cast<int>(state.range(1));
+    const double omega = omegas[state.range(2)];
+    const std::vector<OrderProblem> problems = medium_problems(omega);
+    if (m >= static_cast<int>(problems.size())) {
+        state.SkipWithError("order beyond the truncation");
+        return;
+    }
+    SolveControl control;
+    control.tolerance = default_tolerance;
+    int iterations = 0;
+    for (auto _ : state) {
+        const OrderSolution s = solve_order(problems[m], method, control);
+        iterations = s.iterations;
+        benchmark::DoNotOptimize(s.x.data().data());
+    }
+    state.SetLabel(std::string(to_string(method)) + " m " + std::to_string(m) + " omega " + std::to_string(omega));
+    state.counters["iterations"] = iterations;
+}
+BENCHMARK(BM_Order)
+    ->ArgsProduct({{0, 1, 2}, {0, 1, 4, 16}, {0, 1, 2}})
+    ->ArgNames({"method", "m", "omega"})
+    ->Unit(benchmark::kMillisecond);
 
 } // namespace
 
