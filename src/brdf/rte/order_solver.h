@@ -47,7 +47,7 @@ struct SolveControl {
     double tolerance = 1e-13;    ///< stop when max |X_k+1 - X_k| <= tolerance * max |X_k+1|
     int max_iterations = 100000; ///< fixed point; doubling stops at 100 steps whatever this says
     double gamma = 1.0;          ///< doubling's Cayley parameter (order 1 keeps full accuracy, PHYSICS.md)
-    int fast_sweeps = 12;        ///< Method::Fast: fixed-point sweeps before switching to doubling
+    int fast_sweeps = 30;        ///< Method::Fast: fixed-point sweeps before switching to doubling
 };
 
 struct OrderSolution {
