@@ -115,6 +115,21 @@ TEST(Pipeline, ComputeWritesTablesAndReportAndSkipsWhatIsDone) {
     EXPECT_EQ(outcomes[0].name, "b");
 }
 
+TEST(Pipeline, TablesAreNotSolvedTighterThanTheyCanHold) {
+    TempDir dir;
+    write_file(dir / "spec.json", R"({"name": "tight", "medium": {"albedo": 0.9}, "accuracy": {"tolerance": 1e-8},
+                                      "outputs": ["exr"]})");
+    service::ComputeOptions options;
+    options.output_dir = dir / "out";
+    options.device = service::Device::Cpu;
+    const auto outcomes = service::compute_files({dir / "spec.json"}, options);
+    ASSERT_TRUE(outcomes.at(0).ok) << outcomes[0].error;
+    const auto report = nlohmann::json::parse(read_file(dir / "out/tight.report.json"));
+    EXPECT_EQ(report["error_estimate"]["requested_tolerance"].get<double>(), 1e-8);
+    EXPECT_EQ(report["error_estimate"]["solved_tolerance"].get<double>(), 1e-6);
+    EXPECT_LE(report["solver"]["streams"].get<int>(), 64); // 1e-8 alone would start at 96
+}
+
 TEST(Pipeline, InvalidSpecComputesNothing) {
     TempDir dir;
     write_file(dir / "spec.json", R"({"name": "x", "medium": {"albedo": 1.5}})");

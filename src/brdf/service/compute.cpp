@@ -25,6 +25,8 @@ namespace brdf::service {
 namespace fs = std::filesystem;
 namespace {
 
+constexpr double table_tolerance_floor = 1e-6;
+
 struct Job {
     material::MaterialSpec spec;
     std::size_t index = 0; ///< position across all files, for sharding
@@ -63,7 +65,14 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
         log::info(spec.name, ": up to date (spec hash ", spec.hash, "), skipped");
         return outcome;
     }
-    SolvedMaterial solved = solve_material(spec, options.device);
+    // Tables hold float32 (EXR) values at bin centres, filled by interpolating a Fourier grid whose
+    // error is about 1e-6 at the finest grid: solving tighter than that changes no table a renderer
+    // can tell apart, so the tables' solve stops there (eval on a spec keeps the requested tolerance).
+    const double tolerance = std::max(spec.accuracy.tolerance, table_tolerance_floor);
+    if (tolerance > spec.accuracy.tolerance)
+        log::info(spec.name, ": tables are solved to ", tolerance, ", not the requested ", spec.accuracy.tolerance,
+                  " (finer than the tables can hold)");
+    SolvedMaterial solved = solve_material(spec, options.device, settings_for(tolerance));
     auto t = std::chrono::steady_clock::now();
     formats::BrdfTable table = fill_table(prepare_fill(solved), options.device);
     table.spec = spec.resolved.dump();

@@ -68,7 +68,8 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
           {"worst_residual", worst_residual},
           {"table_grid_zenith_angles", m.settings.table_grid}}},
         {"error_estimate",
-         {{"requested_tolerance", m.settings.tolerance},
+         {{"requested_tolerance", m.spec.accuracy.tolerance},
+          {"solved_tolerance", m.settings.tolerance},
           {"solver_estimate", m.error_estimate},
           {"tolerance_met", m.error_estimate <= m.settings.tolerance},
           {"note", "solver_estimate: relative BRDF difference between the chosen stream count and "
