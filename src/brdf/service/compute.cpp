@@ -27,11 +27,6 @@ namespace {
 
 constexpr double table_tolerance_floor = 1e-6;
 
-struct Job {
-    material::MaterialSpec spec;
-    std::size_t index = 0; ///< position across all files, for sharding
-};
-
 std::vector<std::string> formats_for(const material::MaterialSpec& spec, const ComputeOptions& options) {
     return options.formats.empty() ? spec.outputs : options.formats;
 }
@@ -117,7 +112,7 @@ std::vector<MaterialOutcome> compute_files(const std::vector<fs::path>& specs, c
     if (options.shard_count < 1 || options.shard_index < 0 || options.shard_index >= options.shard_count)
         throw InputError(cat("--shard: expected I/N with 0 <= I < N (got ", options.shard_index, "/", options.shard_count, ")"));
     // Parse and validate every file before computing anything.
-    std::vector<Job> jobs;
+    std::vector<material::MaterialSpec> jobs; // this shard's materials
     std::size_t index = 0;
     std::vector<std::string> names;
     for (const fs::path& file : specs) {
@@ -126,7 +121,7 @@ std::vector<MaterialOutcome> compute_files(const std::vector<fs::path>& specs, c
                 throw InputError(cat(spec.source, ": name '", spec.name, "' is used by another material; outputs would collide"));
             names.push_back(spec.name);
             if (index % options.shard_count == static_cast<std::size_t>(options.shard_index))
-                jobs.push_back(Job{std::move(spec), index});
+                jobs.push_back(std::move(spec));
             ++index;
         }
     }
@@ -139,7 +134,7 @@ std::vector<MaterialOutcome> compute_files(const std::vector<fs::path>& specs, c
     std::mutex print;
     const bool tty = options.progress && isatty(STDERR_FILENO);
     parallel_for(static_cast<int>(jobs.size()), std::max(1, options.jobs), [&](int k) {
-        const material::MaterialSpec& spec = jobs[k].spec;
+        const material::MaterialSpec& spec = jobs[k];
         try {
             outcomes[k] = compute_one(spec, options);
         } catch (const Error& e) {
