@@ -20,7 +20,6 @@ import json
 import os
 import platform
 import subprocess
-import time
 
 import numpy as np
 
@@ -66,8 +65,10 @@ def findings(rows):
 
 
 def disort_case(spec, values, nstr):
-    import torch
-    from pydisort import Disort, DisortOptions
+    # The same DISORT set-up as the unit tests' references (tests/reference/rte/disort_reference.py).
+    import sys
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "reference", "rte"))
+    from disort_reference import run_disort
 
     medium = spec["medium"]
     omega = float(medium["albedo"])
@@ -89,32 +90,7 @@ def disort_case(spec, values, nstr):
     mu0s = [mu_of[t] for t in thetas]
     order = sorted(range(len(thetas)), key=lambda i: mu0s[i])
     mus = [mu0s[i] for i in order]
-    nmom = max(len(pmom), nstr)
-    op = DisortOptions().flags("usrtau,usrang,lamber,quiet,intensity_correction,old_intensity_correction")
-    op.ds().nlyr = 1
-    op.ds().nstr = nstr
-    op.ds().nmom = nmom
-    op.ds().nphase = nstr
-    op.accur(0.0)
-    op.user_tau(np.array([0.0]))
-    op.user_mu(np.array(mus))
-    op.user_phi(np.array([p + 180.0 for p in phis]))
-    op.nwave(1)
-    op.ncol(len(mu0s))
-    t0 = time.perf_counter()
-    ds = Disort(op)
-    prop = torch.zeros((1, len(mu0s), 1, 2 + nmom), dtype=torch.float64)
-    prop[..., 0] = 1e10
-    prop[..., 1] = omega_run
-    pm = np.zeros(nmom)
-    pm[: len(pmom)] = pmom
-    prop[..., 2:] = torch.tensor(pm, dtype=torch.float64)
-    n = len(mu0s)
-    z = torch.zeros((1, n), dtype=torch.float64)
-    ds.forward(prop, umu0=torch.tensor(mu0s, dtype=torch.float64), phi0=torch.zeros(n, dtype=torch.float64),
-               fbeam=torch.ones((1, n), dtype=torch.float64), albedo=z, fluor=z, fisot=z)
-    rad = ds.gather_rad().numpy()[0, :, :, 0, :] / np.array(mu0s)[:, None, None]
-    seconds = time.perf_counter() - t0
+    rad, seconds = run_disort(nstr, omega_run, pmom, mu0s, mus, phis)
     worst = 0.0
     for ti, to, ph, r, _, _ in values:
         got = rad[thetas.index(ti), phis.index(ph), order.index(thetas.index(to))]
