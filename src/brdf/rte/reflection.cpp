@@ -96,6 +96,10 @@ Reflection::Reflection(ReflectionSetup setup, std::vector<OrderSolution> solutio
             for (int j = 0; j < n; ++j)
                 g(i, j) -= 0.5 * om * p.plus(i, j) * s.w[j] + om * s.mu[i] * xwpw(i, j);
         m_gain.push_back(std::move(g));
+        Matrix minus_w = p.minus;
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) minus_w(i, j) *= s.w[j];
+        m_minus_w.push_back(std::move(minus_w));
         if (m_setup.interface.present()) {
             Matrix b = Matrix::identity(n);
             for (int i = 0; i < n; ++i)
@@ -150,11 +154,7 @@ OrderGrid Reflection::order_grid(std::span<const double> mu_air) const {
             for (int k = 0; k < n; ++k) rnw(e, k) *= s.w[k], puw(e, k) *= s.w[k];
         const Matrix rnT = transpose(rn);
         const Matrix t2 = puw * rnT;                 // (Pu W Rn^T)_ab
-        const PhasePair pn = phase_components(m_setup.truncated.scaled.beta, m, s.mu, s.mu);
-        Matrix wpmw(n, n);
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) wpmw(i, j) = pn.minus(i, j) * s.w[j];
-        const Matrix t4 = rnw * wpmw * rnT;          // (Rn W P- W Rn^T)_ab
+        const Matrix t4 = rnw * m_minus_w[m] * rnT; // (Rn W P- W Rn^T)_ab
         Matrix r(ne, ne);
         for (int a = 0; a < ne; ++a) {
             for (int b = 0; b < ne; ++b) {

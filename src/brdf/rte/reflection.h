@@ -86,6 +86,7 @@ private:
     ReflectionSetup m_setup;
     std::vector<OrderSolution> m_solutions;
     std::vector<Matrix> m_gain;        ///< per order: I - (w/2) P+ W - w M X W P- W (Nystrom kernel)
+    std::vector<Matrix> m_minus_w;     ///< per order: P- W, for the quadratic term of the evaluation
     std::vector<LuFactor> m_bounce;    ///< per order: I - X Q, Q = diag(2 w mu F) (interface only)
 };
 
