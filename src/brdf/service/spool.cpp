@@ -329,11 +329,22 @@ bool all_digits(std::string_view s) {
 }
 
 /// The writer's pid in a temporary's name, or 0 when the name does not carry one. Names:
-/// ".T.tmp.PID.N.STAMP" (formats' AtomicFile), ".T.PID.tmp" (write_text_atomically) and
-/// ".T.PID.N.tmp" (write_file_atomic), where T is the target's name.
+/// ".T.tmp.PID.N.STAMP" (formats' AtomicFile), ".T.PID.tmp" (write_text_atomically),
+/// ".T.PID.N.tmp" (write_file_atomic), where T is the target's name, and ".HOST-PID-RANDOM.lock.tmp"
+/// (a daemon lease being registered).
 pid_t temporary_writer_pid(std::string_view name) {
     const std::vector<std::string_view> parts = split_dots(name.substr(1));
     const std::size_t n = parts.size();
+    if (n == 3 && parts[1] == "lock" && parts[2] == "tmp") {
+        // A daemon lease being registered: ".HOST-PID-RANDOM.lock.tmp" (DaemonLease).
+        const std::string_view id = parts[0];
+        const std::size_t last = id.rfind('-');
+        const std::size_t before = last == std::string_view::npos || last == 0 ? std::string_view::npos
+                                                                                : id.rfind('-', last - 1);
+        if (before == std::string_view::npos) return 0;
+        const std::string_view pid = id.substr(before + 1, last - before - 1);
+        return all_digits(pid) ? static_cast<pid_t>(std::stol(std::string(pid))) : 0;
+    }
     if (n >= 2 && parts[n - 1] == "tmp") {
         // The first of the (at most two) numbers right before the final "tmp".
         std::size_t first = n - 1;
@@ -386,6 +397,9 @@ std::vector<fs::path> Spool::remove_stale_temporaries(fs::file_time_type started
             if (!old_enough) continue;
             const pid_t pid = temporary_writer_pid(file);
             if (pid != ::getpid() && process_alive(pid)) continue;
+            // A lease of this very process is another daemon here registering right now (it is
+            // unlocked for the instant between open and flock): two daemons starting together raced.
+            if (pid == ::getpid() && dir == daemons()) continue;
             if (flocked_by_someone(it->path())) continue;
             if (fs::remove(it->path(), e)) removed.push_back(it->path());
         }
