@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <numbers>
+#include <optional>
 #include <cmath>
 
 namespace brdf::service {
@@ -65,15 +66,22 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const rte::Reflect
     probes.push_back(peaked);
     if (bright != peaked) probes.push_back(bright);
     int n = st.streams;
+    // The larger solve of one round is the smaller one of the next: kept, not solved again.
+    std::vector<std::optional<rte::Reflection>> at_n(probes.size());
     for (;;) {
         const int next = std::min(st.max_streams, (3 * n + 1) / 2);
         if (next <= n) return n; // at the cap: keep the last estimate
         estimate = 0.0;
-        for (std::size_t k : probes)
-            estimate = std::max(estimate, disagreement(solve_one(optics[k], rs, n), solve_one(optics[k], rs, next)));
+        std::vector<std::optional<rte::Reflection>> at_next(probes.size());
+        for (std::size_t p = 0; p < probes.size(); ++p) {
+            if (!at_n[p]) at_n[p] = solve_one(optics[probes[p]], rs, n);
+            at_next[p] = solve_one(optics[probes[p]], rs, next);
+            estimate = std::max(estimate, disagreement(*at_n[p], *at_next[p]));
+        }
         if (estimate <= st.tolerance) return n;
         log::info("streams ", n, " -> ", next, ": solutions differ by ", estimate, " (tolerance ", st.tolerance, ")");
         n = next;
+        at_n = std::move(at_next);
     }
 }
 
