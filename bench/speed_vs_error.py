@@ -7,7 +7,7 @@ a Gauss node within 1e-4 of mu0 = cos 30 deg, where cdisort silently moves mu0),
 the CSV, draws bench/results/speed_vs_error.png (time against error, log-log, one curve per method)
 and writes docs/benchmarks.md.
 
-DISORT settings (PHYSICS.md section 6): tau = 1e10 over a black floor, phase moments
+DISORT settings (docs/physics.md section 6): tau = 1e10 over a black floor, phase moments
 PMOM_l = beta_l / (2l + 1), azimuth phi_DISORT = phi_graphics + 180 deg, ACCUR = 0, original
 Nakajima-Tanaka intensity correction, BRDF = I / (mu0 FBEAM). omega = 1 is run as 0.999999 (DISORT
 dithers unit albedo); its error against the omega = 1 reference includes that ~3.5e-3 shift.

@@ -3,7 +3,7 @@
 // Data-Driven Reflectance Model", SIGGRAPH 2003; the angles are those of Rusinkiewicz, "A New
 // Change of Variables for Efficient BRDF Representation", EGWR 1998, section 3).
 //
-// Conventions (shared/DESIGN.md, "Angle and unit conventions"): the normal is +z, directions point
+// Conventions (docs/design.md, "Angle and unit conventions"): the normal is +z, directions point
 // away from the surface, all angles are in radians. An isotropic BRDF is a function of
 //   theta_h  zenith angle of the half vector h = normalize(wi + wo), [0, pi/2]
 //   theta_d  angle between wi and h, [0, pi/2]

@@ -1,4 +1,4 @@
-// Batched per-Fourier-order solvers of Ambartsumian's equation (PHYSICS.md section 3): one work-group
+// Batched per-Fourier-order solvers of Ambartsumian's equation (docs/physics.md section 3): one work-group
 // per order problem, the same algorithms and the same arithmetic order as the C++ references in
 // src/brdf/rte/order_solver.cpp (fixed point, structure-preserving doubling with the conservative
 // rank-one shift, and the fast switch between them) and src/brdf/core/linalg.cpp (LU with partial

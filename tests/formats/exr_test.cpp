@@ -24,7 +24,7 @@ float as_float(double v) {
     return static_cast<float>(v);
 }
 
-// Other tools must read our files: OpenImageIO reports the layout of shared/DESIGN.md.
+// Other tools must read our files: OpenImageIO reports the layout of docs/design.md.
 TEST(ExrFormat, OpenImageIOSeesTheDocumentedLayoutAndAttributes) {
     TempDir dir;
     const fs::path p = dir / "a.exr";

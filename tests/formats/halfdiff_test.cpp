@@ -1,7 +1,7 @@
 // The half/difference layout against an independent evaluation: directions are built here from
 // spherical angles with explicit 3x3 rotation matrices (Rusinkiewicz 1998, section 3: the
 // difference vector is wi expressed in the frame Ry(-theta_h) Rz(-phi_h) that takes h to the pole),
-// and the bin formulas are restated from shared/DESIGN.md ("Table formats").
+// and the bin formulas are restated from docs/design.md ("Table formats").
 
 #include <formats/halfdiff.h>
 
@@ -182,7 +182,7 @@ TEST(HalfDiffConversion, RoundTripsThroughDirections) {
     }
 }
 
-// shared/DESIGN.md: phi = 0 puts the viewer on the light's side (retro-reflection when
+// docs/design.md: phi = 0 puts the viewer on the light's side (retro-reflection when
 // theta_o = theta_i); phi = 180 degrees is the mirror side.
 TEST(HalfDiffConversion, AngleConventionsOfTheDesign) {
     const double deg = pi / 180;

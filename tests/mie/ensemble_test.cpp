@@ -22,7 +22,7 @@ using Complex = std::complex<double>;
 constexpr double pi = std::numbers::pi;
 
 // Rutile, the ordinary and extraordinary indices of DeVore (1951, JOSA 41, 416), averaged as
-// (2 n_o + n_e) / 3 for random orientation (PHYSICS.md section 7), k = 0 as in the benchmark.
+// (2 n_o + n_e) / 3 for random orientation (docs/physics.md section 7), k = 0 as in the benchmark.
 Complex rutile(double wavelength_nm) {
     const double l2 = wavelength_nm * wavelength_nm * 1e-6;
     const double n_o = std::sqrt(5.913 + 0.2441 / (l2 - 0.0803));
@@ -55,7 +55,7 @@ TEST(Ensemble, KronrodRuleIsExact) {
 }
 
 // A monodisperse "distribution" is exactly the single sphere, with the size parameter formed from
-// the wavelength in the binder, x = 2 pi r n_h / lambda (PHYSICS.md section 1).
+// the wavelength in the binder, x = 2 pi r n_h / lambda (docs/physics.md section 1).
 TEST(Ensemble, MonodisperseIsExactlyTheSphere) {
     const Complex particle(2.7, 0.01);
     const double n_h = 1.5, wavelength = 550.0, radius = 0.25;

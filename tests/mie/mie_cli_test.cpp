@@ -27,7 +27,7 @@ TEST(MieCli, SingleSphereFromRelativeIndex) {
     const nlohmann::json j = run_json({"--m", "1.5+0.1i", "--x", "10"});
     for (const char* key : {"m", "x", "qext", "qsca", "qabs", "qback", "g", "albedo", "legendre"})
         EXPECT_TRUE(j.contains(key)) << key;
-    // PHYSICS.md section 1 (MIEV0): Qext = 2.4597905, Qsca = 1.2351442, g = 0.9223496.
+    // docs/physics.md section 1 (MIEV0): Qext = 2.4597905, Qsca = 1.2351442, g = 0.9223496.
     EXPECT_REL_NEAR(j["qext"].get<double>(), 2.4597905, 1e-7);
     EXPECT_REL_NEAR(j["qsca"].get<double>(), 1.2351442, 1e-7);
     EXPECT_REL_NEAR(j["g"].get<double>(), 0.9223496, 1e-7);
@@ -52,7 +52,7 @@ TEST(MieCli, PhysicalUnitsWithOneRadius) {
                             "qabs", "qback", "g", "albedo", "legendre", "cext_um2", "csca_um2",
                             "radius_range_um"})
         EXPECT_TRUE(j.contains(key)) << key;
-    // The size parameter is formed with the wavelength in the binder (PHYSICS.md section 1).
+    // The size parameter is formed with the wavelength in the binder (docs/physics.md section 1).
     const double x = 2.0 * M_PI * 0.25 * 1.5 / 0.55;
     const mie::Sphere s = mie::sphere(std::complex<double>(2.7, 0.01) / 1.5, x);
     EXPECT_REL_NEAR(j["qext"].get<double>(), s.q.qext, 1e-14);

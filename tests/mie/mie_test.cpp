@@ -86,7 +86,7 @@ TEST(MieReference, Miev0NonAbsorbing) {
     }
 }
 
-// PHYSICS.md section 1 (values from MIEV0 as reproduced by miepython): m = 1.5 - 0.1i in MIEV0's
+// docs/physics.md section 1 (values from MIEV0 as reproduced by miepython): m = 1.5 - 0.1i in MIEV0's
 // convention is m = 1.5 + 0.1i in ours.
 TEST(MieReference, PhysicsNotesValues) {
     const Efficiencies q = efficiencies(coefficients({1.5, 0.1}, 10.0));

@@ -33,7 +33,7 @@ double integrate(const std::function<double(double)>& f, double a, double b, int
     return sum;
 }
 
-// Mishchenko's spher.f reference run (PHYSICS.md section 2): r_eff = 0.6, v_eff = 0.2 gives
+// Mishchenko's spher.f reference run (docs/physics.md section 2): r_eff = 0.6, v_eff = 0.2 gives
 // r1 = 0.245830, r2 = 1.194170 (six digits).
 TEST(SizeDistribution, PowerLawRangeMatchesMishchenko) {
     const SizeDistribution d = power_law(0.6, 0.2);

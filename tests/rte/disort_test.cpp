@@ -2,7 +2,7 @@
 // tests/reference/rte/disort_hg_rayleigh.json, written by disort_reference.py beside it. BRDF values of
 // a bare semi-infinite medium for Henyey-Greenstein g = -0.5, 0.5, 0.9, 0.99 and Rayleigh scattering at
 // omega = 0.5, 0.9 and 0.999999 (DISORT's stand-in for omega = 1; we solve at the same albedo), on
-// theta_i, theta_o in {0, 30, 60, 80} degrees and phi in {0, 90, 180} (graphics azimuth, DESIGN.md).
+// theta_i, theta_o in {0, 30, 60, 80} degrees and phi in {0, 90, 180} (graphics azimuth, docs/design.md).
 //
 // Converged references (all but g = 0.99) must agree within 1e-4 relative. g = 0.99 cannot be
 // converged in DISORT (delta-M always on, truncated fraction f = g^NSTR = 0.28 at NSTR = 128, run time

@@ -70,7 +70,7 @@ double to_degrees(double radians) {
     return radians * 180.0 / pi;
 }
 
-// MERL -> EXR -> MERL keeps every valid value up to float32 rounding (DESIGN.md, "OpenEXR table"):
+// MERL -> EXR -> MERL keeps every valid value up to float32 rounding (docs/design.md, "OpenEXR table"):
 // the result is the float32 rounding of the original, give or take one double ulp from the MERL
 // scale (stored = BRDF / scale), and no cell gains or loses data.
 TEST(TableTools, ConvertMerlExrMerlRoundTripKeepsValuesToFloat32) {

@@ -1,4 +1,4 @@
-// brdfd: the batch daemon. Serves a spool folder (docs/daemon.md, shared/DESIGN.md "Daemon").
+// brdfd: the batch daemon. Serves a spool folder (docs/daemon.md, docs/design.md "Daemon").
 // Like brdftool's main, this is one of the two places errors are caught: a brdf::Error that stops the
 // daemon (a spool it cannot create, bad flags) becomes one line on stderr and its exit status; job
 // errors are caught per job inside run_daemon and never get here.

@@ -1,4 +1,4 @@
-// brdftool albedo: directional-hemispherical reflectance "r g b" per incidence angle (DESIGN.md).
+// brdftool albedo: directional-hemispherical reflectance "r g b" per incidence angle (docs/design.md).
 // The diffuse part only; a smooth interface's mirror reflection is printed on its own line.
 
 #include "commands.h"

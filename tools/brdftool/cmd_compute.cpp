@@ -1,5 +1,5 @@
 // brdftool compute: every material of the given specs or catalogues -> DIR/NAME.binary, NAME.exr,
-// NAME.report.json (DESIGN.md). Exit status 0 only if every material succeeded.
+// NAME.report.json (docs/design.md). Exit status 0 only if every material succeeded.
 
 #include "commands.h"
 #include "source.h"

@@ -1,5 +1,5 @@
 // brdftool convert IN OUT: one table format into the other, chosen by the file extensions
-// (DESIGN.md, "Table formats"). Both extensions and the paths are checked before the 35 MB input is
+// (docs/design.md, "Table formats"). Both extensions and the paths are checked before the 35 MB input is
 // read, so a typo costs nothing; the output is written atomically by write_table, so a failed
 // conversion never leaves a partial OUT (and never clobbers an existing one).
 //

@@ -1,11 +1,11 @@
 // brdftool diff A B [--floor X] [--json]: per-channel max / mean / RMS relative difference of A
 // against the reference B (formats::diff: |a - b| / max(|b|, floor) over the cells with data in
 // both), with the cell of each maximum given as the bin-centre angles (theta_h, theta_d, phi_d) in
-// degrees and both values there (DESIGN.md, "Executables").
+// degrees and both values there (docs/design.md, "Executables").
 //
 // Operands are loaded by load_operand(), the one place that knows what an operand may be: a table
 // file (.binary, .exr), or a material spec (.json), solved and tabulated exactly as `compute` would
-// (the "table and a spec" case of DESIGN.md: how much does a stored table differ from the model?).
+// (the "table and a spec" case of docs/design.md: how much does a stored table differ from the model?).
 
 #include "commands.h"
 #include "source.h"

@@ -1,4 +1,4 @@
-// brdftool eval: the BRDF (1/sr) as "r g b" per direction triple (DESIGN.md). On a spec the solved
+// brdftool eval: the BRDF (1/sr) as "r g b" per direction triple (docs/design.md). On a spec the solved
 // model is evaluated at exactly the given angles; on a table, by nearest-bin lookup.
 
 #include "commands.h"

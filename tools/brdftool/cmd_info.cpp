@@ -1,4 +1,4 @@
-// brdftool info FILE [--json]: what a table file holds (DESIGN.md, "Executables"): its format,
+// brdftool info FILE [--json]: what a table file holds (docs/design.md, "Executables"): its format,
 // layout and size, its provenance (the EXR brdf.* attributes), how many cells hold data,
 // per-channel value statistics (formats::table_stats) and the directional albedo at a few incidence
 // angles (formats::directional_albedo). Human-readable by default; --json prints one JSON object

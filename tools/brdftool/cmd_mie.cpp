@@ -1,5 +1,5 @@
 // brdftool mie: Lorenz-Mie results of one sphere or a size distribution as one JSON object
-// (DESIGN.md, "brdftool mie"). Values are taken as strings and parsed strictly (core/parse.h), and
+// (docs/design.md, "brdftool mie"). Values are taken as strings and parsed strictly (core/parse.h), and
 // the combination of flags is checked here, so that every mistake is an InputError (exit status 3)
 // with one line naming the flags, not a half-read number.
 

@@ -1,4 +1,4 @@
-// brdftool: compute, inspect and convert BRDF tables. See ../../README.md and ../../../shared/DESIGN.md.
+// brdftool: compute, inspect and convert BRDF tables. See ../../README.md and docs/design.md.
 // This is one of the two places errors are caught (the other is each daemon job): every brdf::Error
 // becomes one line on stderr and its documented exit status; anything else is an internal error.
 

@@ -1,6 +1,6 @@
 #pragma once
 // Legendre polynomials and normalised associated Legendre functions, the building blocks of the
-// Fourier decomposition of a phase function (PHYSICS.md section 3; Mishchenko et al. 1999, JQSRT 63,
+// Fourier decomposition of a phase function (docs/physics.md section 3; Mishchenko et al. 1999, JQSRT 63,
 // 409, eq. 10):
 //   p^m(mu, mu') = sum_{l >= m} beta_l Pbar_l^m(mu) Pbar_l^m(mu'),
 //   Pbar_l^m = sqrt((l - m)! / (l + m)!) P_l^m   (no Condon-Shortley phase: it cancels in products).

@@ -371,7 +371,7 @@ CatalogueEntry build(const Source& s) {
         model = apply_policy(load(s.file, id, repairs), s);
         axes.push_back({"", 1.0, *model});
     } else {
-        // Random orientation of a uniaxial crystal: m = (2 m_o + m_e) / 3 (PHYSICS.md section 7).
+        // Random orientation of a uniaxial crystal: m = (2 m_o + m_e) / 3 (docs/physics.md section 7).
         const IndexModel o = apply_policy(load(s.file, id + " (ordinary ray)", repairs), s);
         const IndexModel e = apply_policy(load(s.file_e, id + " (extraordinary ray)", repairs), s);
         const std::pair<double, IndexModel> parts[] = {{2.0 / 3.0, o}, {1.0 / 3.0, e}};

@@ -5,7 +5,7 @@
 // mirrors it with each entry's source, range and extension policy.
 //
 // Uniaxial crystals (rutile, ZnO, calcite, hematite, cinnabar) are modelled in random orientation
-// by the average m = (2 m_o + m_e) / 3 of n and of k (PHYSICS.md section 7); the per-axis models
+// by the average m = (2 m_o + m_e) / 3 of n and of k (docs/physics.md section 7); the per-axis models
 // are kept in CatalogueEntry::axes for code that averages the scattering instead.
 //
 // Range policy (see IndexModel): tabulated data are never extrapolated; formula data hold in their

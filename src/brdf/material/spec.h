@@ -1,5 +1,5 @@
 #pragma once
-// Material specs (DESIGN.md, "Material spec (JSON)"): parsing, validation and resolution of one
+// Material specs (docs/design.md, "Material spec (JSON)"): parsing, validation and resolution of one
 // material or a catalogue {"materials": [...], "defaults": {...}} into MaterialSpec values that the
 // compute pipeline uses directly (index models ready to evaluate, size distributions built,
 // spectral set chosen).
@@ -10,7 +10,7 @@
 // at its `defaults.KEY` path. Warnings (extrapolated index data, dense pigment loads) do not fail a
 // spec: they are logged with log::warn and kept in MaterialSpec::warnings for the report.
 //
-// Resolution rules beyond DESIGN.md (extensions, never renames):
+// Resolution rules beyond docs/design.md (extensions, never renames):
 //  - A pigment's or binder's index may be given as "material": ID | {"index": X} | {"nk": ROWS},
 //    or with the shorthand keys "index" / "nk" beside "volume_fraction" (pigment) or
 //    "absorption_per_mm" (binder). The resolved form is always "material": ...; an index X is a

@@ -3,8 +3,8 @@
 // number-weighted mean cross sections, the averaged phase function and its Legendre moments.
 //
 // Physical units: the host has real index n_h; the sphere's relative index is m = n_particle / n_h and
-// its size parameter x = 2 pi r n_h / lambda (the wavelength in the host, PHYSICS.md section 1). The
-// averaged phase function is sum C_sca(r) p_r / sum C_sca(r) over the number density (PHYSICS.md
+// its size parameter x = 2 pi r n_h / lambda (the wavelength in the host, docs/physics.md section 1). The
+// averaged phase function is sum C_sca(r) p_r / sum C_sca(r) over the number density (docs/physics.md
 // section 2; Hansen and Travis 1974): the intensities |S1|^2 + |S2|^2 are accumulated with the number
 // weights on one angular rule and projected onto Legendre polynomials once (phase_function.h).
 //

@@ -12,7 +12,7 @@
 //
 // A size distribution adds many spheres with weights (number density x quadrature weight in radius)
 // and projects once at the end: the averaged phase function is sum_k w_k I_k / sum_k w_k int I_k
-// (PHYSICS.md section 2), which is what the accumulated intensities give.
+// (docs/physics.md section 2), which is what the accumulated intensities give.
 
 #include <brdf/core/quadrature.h>
 #include <brdf/mie/mie.h>

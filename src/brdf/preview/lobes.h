@@ -17,7 +17,7 @@ namespace brdf::preview {
 
 struct LobeCurve {
     std::string label;        ///< legend text (drawn upper case)
-    BrdfFunction brdf;        ///< 1/sr, DESIGN.md angles
+    BrdfFunction brdf;        ///< 1/sr, docs/design.md angles
     double theta_i_deg = 30.0; ///< incidence zenith angle, [0, 90)
     std::optional<Rgb> colour; ///< linear RGB; default: the palette colour of its position
 };

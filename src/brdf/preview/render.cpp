@@ -48,7 +48,7 @@ struct Frame {
         t1 = dot(t, t) > 1e-18 ? normalize(t) : perpendicular(normal);
         t2 = cross(n, t1);
     }
-    /// phi = phi_o - phi_i of direction d (DESIGN.md), folded into [0, pi].
+    /// phi = phi_o - phi_i of direction d (docs/design.md), folded into [0, pi].
     double phi(Vec d) const { return fold_phi(std::atan2(dot(d, t2), dot(d, t1))); }
 };
 

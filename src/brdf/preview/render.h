@@ -7,7 +7,7 @@
 //       + sum_j f(theta_j, theta_o, phi_j) L_env(w_j) cos theta_j dw_j           (environment)
 //       + F(theta_o) [L_env(r) + L_light(r)]                                     (smooth interface)
 //
-// with theta_i, theta_o from the normal and phi = phi_o - phi_i (DESIGN.md: 0 on the light's side,
+// with theta_i, theta_o from the normal and phi = phi_o - phi_i (docs/design.md: 0 on the light's side,
 // pi on the mirror side), r the mirror direction of the view and F the interface's mirror
 // reflectance. Everything is deterministic: the environment is integrated with a fixed product rule
 // in each point's local frame (Gauss-Legendre in cos theta times the midpoint rule in azimuth), which
@@ -22,7 +22,7 @@
 
 namespace brdf::preview {
 
-/// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, DESIGN.md conventions).
+/// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, docs/design.md conventions).
 /// render_sphere calls it from several threads at once.
 using BrdfFunction = std::function<Rgb(double theta_i, double theta_o, double phi)>;
 /// Reflectance of a smooth interface's mirror reflection at incidence theta (radians).

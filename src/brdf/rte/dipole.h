@@ -1,7 +1,7 @@
 #pragma once
 // Comparison model: the dipole diffusion BRDF plus single scattering of Jensen, Marschner, Levoy and
 // Hanrahan 2001 ("A Practical Model for Subsurface Light Transport", SIGGRAPH 2001, section 2.4 and
-// eqs. (5)-(7); PHYSICS.md section 5). It is the baseline the seed paper compares against: cheap, but
+// eqs. (5)-(7); docs/physics.md section 5). It is the baseline the seed paper compares against: cheap, but
 // biased in both directions (diffusion overestimates or underestimates the multiple scattering
 // depending on albedo and angles) and it loses the angular structure of the multiple scattering.
 // Keep it as a comparison model only; the service's default is the exact solve.
@@ -20,7 +20,7 @@
 // models differ only in the multiple scattering. eta = 1 means no interface (F_t = 1, F_dr = 0: the
 // fit's 0.0026 at eta = 1 is its own error, not internal reflection).
 //
-// Angles: cosines in air, phi in the graphics convention of DESIGN.md (0 on the light's side).
+// Angles: cosines in air, phi in the graphics convention of docs/design.md (0 on the light's side).
 
 #include <brdf/rte/interface.h>
 

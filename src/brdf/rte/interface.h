@@ -1,5 +1,5 @@
 #pragma once
-// The smooth air/binder interface (PHYSICS.md section 4): Snell refraction, unpolarised Fresnel
+// The smooth air/binder interface (docs/physics.md section 4): Snell refraction, unpolarised Fresnel
 // reflectance (Born and Wolf, Principles of Optics, section 1.5), total internal reflection.
 
 namespace brdf::rte {

@@ -1,6 +1,6 @@
 #pragma once
 // One Fourier order of Ambartsumian's nonlinear integral equation for the reflection function of a
-// semi-infinite medium (PHYSICS.md section 3; Ambartsumian 1943; Mishchenko et al. 1999, eq. 16).
+// semi-infinite medium (docs/physics.md section 3; Ambartsumian 1943; Mishchenko et al. 1999, eq. 16).
 // Discretised on the streams it is the nonsymmetric algebraic Riccati equation (NARE)
 //   X C X - X D - A X + B = 0,                       X_ij = R^m(mu_i, mu_j),
 //   B = (w/4) M^-1 P- M^-1,  C = w W P- W,  D = M^-1 - (w/2) W P+ M^-1,  A = D^T,
@@ -46,7 +46,7 @@ RiccatiMatrices riccati_matrices(const OrderProblem& problem);
 struct SolveControl {
     double tolerance = 1e-13;    ///< stop when max |X_k+1 - X_k| <= tolerance * max |X_k+1|
     int max_iterations = 100000; ///< fixed point; doubling stops at 100 steps whatever this says
-    double gamma = 1.0;          ///< doubling's Cayley parameter (order 1 keeps full accuracy, PHYSICS.md)
+    double gamma = 1.0;          ///< doubling's Cayley parameter (order 1 keeps full accuracy, docs/physics.md)
     int fast_sweeps = 30;        ///< Method::Fast: fixed-point sweeps before switching to doubling
 };
 

@@ -1,5 +1,5 @@
 #pragma once
-// Phase functions as Legendre series and their Fourier components (PHYSICS.md section 3):
+// Phase functions as Legendre series and their Fourier components (docs/physics.md section 3):
 //   p(cos T) = sum_l beta_l P_l(cos T),  beta_0 = 1,
 //   p^m(mu, mu') = sum_{l >= m} beta_l Pbar_l^m(mu) Pbar_l^m(mu').
 // Delta-M truncation (Wiscombe 1977, J. Atmos. Sci. 34, 1408, eqs. 5-7) keeps the series short for

@@ -4,7 +4,7 @@
 // then evaluate the BRDF at any angles through the equation itself (Nystrom interpolation, the
 // "source-function integration" of DISORT) with the exact single scattering added back (TMS).
 //
-// Angles: mu = cosines of the zenith angles in air; phi is the graphics azimuth of DESIGN.md
+// Angles: mu = cosines of the zenith angles in air; phi is the graphics azimuth of docs/design.md
 // (phi = 0 on the light's side, pi on the mirror side). The radiative-transfer azimuth of the equation
 // is phi + pi, hence the (-1)^m of every Fourier sum here. BRDF = R / pi.
 

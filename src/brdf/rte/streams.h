@@ -4,7 +4,7 @@
 // phase-function Fourier components exactly (degree <= 2N - 1), so energy is conserved to rounding at
 // albedo 1, and Nystrom evaluation through the equation recovers off-node accuracy. With a smooth
 // interface the rule is split at the critical cosine, where total internal reflection switches on
-// (PHYSICS.md section 4).
+// (docs/physics.md section 4).
 
 #include <span>
 #include <vector>

@@ -60,7 +60,7 @@ struct SolvedMaterial {
     double gamut_scale = 1.0; ///< chroma factor applied by fit_into_gamut (1: colour already in gamut)
     StageSeconds seconds;
 
-    /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, DESIGN.md conventions).
+    /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, docs/design.md conventions).
     Rgb brdf(double theta_i, double theta_o, double phi) const;
     /// Directional-hemispherical reflectance of the diffuse part.
     Rgb albedo(double theta_i) const;

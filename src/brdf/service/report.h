@@ -1,5 +1,5 @@
 #pragma once
-// NAME.report.json (DESIGN.md, "Report"): the resolved spec and its hash, per-wavelength optics,
+// NAME.report.json (docs/design.md, "Report"): the resolved spec and its hash, per-wavelength optics,
 // solver statistics, error estimates, directional albedo, seconds per stage.
 
 #include <brdf/service/model.h>

@@ -2,7 +2,7 @@
 """Reference values of Chandrasekhar's H-function for isotropic scattering.
 
 ln H(mu) = -(mu/pi) int_0^inf ln(1 - omega arctan(x)/x) dx / (1 + mu^2 x^2)
-(Chandrasekhar 1960, Radiative Transfer, eq. V.(39); PHYSICS.md section 3), evaluated with mpmath at
+(Chandrasekhar 1960, Radiative Transfer, eq. V.(39); docs/physics.md section 3), evaluated with mpmath at
 30 digits. The exact reflection function is then R = (omega/4) H(mu) H(mu0) / (mu + mu0).
 Writes chandrasekhar_h.json beside this script. Run: python3 chandrasekhar_h.py
 """
@@ -48,7 +48,7 @@ def main():
     path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "chandrasekhar_h.json")
     with open(path, "w") as f:
         json.dump(out, f, indent=1)
-    # Published check values at omega = 1 (PHYSICS.md): H(1) = 2.9078105291, H(0.5) = 2.0127787700.
+    # Published check values at omega = 1 (docs/physics.md): H(1) = 2.9078105291, H(0.5) = 2.0127787700.
     print("H(1), H(0.5), H(0.1) at omega 1:", [float(h_function(m, 1)) for m in (1, 0.5, 0.1)])
 
 

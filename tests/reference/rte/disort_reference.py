@@ -7,13 +7,13 @@ phase functions g in {-0.5, 0.5, 0.9, 0.99} and Rayleigh, single-scattering albe
 omega in {0.5, 0.9, 0.999999}, at theta_i, theta_o in {0, 30, 60, 80} degrees and
 phi in {0, 90, 180} degrees. Run: python3 disort_reference.py  (about a minute).
 
-Settings (PHYSICS.md section 6):
+Settings (docs/physics.md section 6):
 - omega = 1 is not used: DISORT replaces an albedo of exactly 1 by 1 - dither and is ill-conditioned
   near it, so the "conservative" case is omega = 0.999999 here, and the C++ test solves at that same
   albedo (not at 1).
 - Semi-infinite: one layer of optical thickness 1e10 over a black Lambertian floor.
 - BRDF = I / (mu0 FBEAM) (R = pi I / (mu0 FBEAM), BRDF = R / pi), FBEAM = 1.
-- Azimuth: DISORT's phi = 0 is the forward side; the graphics azimuth of DESIGN.md is
+- Azimuth: DISORT's phi = 0 is the forward side; the graphics azimuth of docs/design.md is
   phi_g = phi_DISORT - 180 degrees, so DISORT is run at phi_g + 180.
 - Phase moments PMOM_l = beta_l / (2l + 1): g^l for Henyey-Greenstein, (0, 0.1) for Rayleigh.
 - Azimuth-series tolerance ACCUR = 0 (pydisort's default 1e-6 stops the Fourier sum early).
@@ -133,7 +133,7 @@ def main():
         "source": "tests/reference/rte/disort_reference.py: cdisort 2.1.3 via pydisort "
                   + getattr(pydisort, "__version__", "?"),
         "generated": datetime.date.today().isoformat(),
-        "units": "BRDF in 1/sr; angles in degrees; phi in the graphics convention of DESIGN.md "
+        "units": "BRDF in 1/sr; angles in degrees; phi in the graphics convention of docs/design.md "
                  "(0 = the light's side, 180 = the mirror side)",
         "medium": "semi-infinite (tau = 1e10 over a black floor), no interface",
         "omega_note": "omega = 1 is represented by 0.999999 (DISORT dithers unit albedo); compare at 0.999999",
