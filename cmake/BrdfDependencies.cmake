@@ -34,6 +34,17 @@ foreach(dir IN LISTS brdf_oiio_includes)
 endforeach()
 set_property(TARGET OpenImageIO::OpenImageIO PROPERTY INTERFACE_INCLUDE_DIRECTORIES ${brdf_oiio_existing})
 find_package(Threads REQUIRED)
+# Dense linear algebra: OpenBLAS (runtime CPU dispatch, so one portable build uses AVX2/AVX-512 where
+# the machine has them) for BLAS and LAPACK, with the LAPACKE C interface (liblapacke-dev's header;
+# OpenBLAS carries the symbols).
+set(BLA_VENDOR OpenBLAS)
+brdf_require_package(BLAS "libopenblas-dev")
+find_path(BRDF_LAPACKE_INCLUDE lapacke.h)
+find_library(BRDF_LAPACKE_LIBRARY lapacke)
+find_path(BRDF_CBLAS_INCLUDE cblas.h PATH_SUFFIXES x86_64-linux-gnu aarch64-linux-gnu openblas)
+if(NOT BRDF_LAPACKE_INCLUDE OR NOT BRDF_CBLAS_INCLUDE OR NOT BRDF_LAPACKE_LIBRARY)
+  message(FATAL_ERROR "brdf-service needs cblas.h and lapacke.h (Debian packages: libopenblas-dev liblapacke-dev). ${BRDF_INSTALL_HINT}.")
+endif()
 
 if(BRDF_BUILD_TESTS)
   brdf_require_package(GTest "googletest libgtest-dev")

@@ -10,6 +10,7 @@ packages=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
   libopenimageio-dev openimageio-tools libopenexr-dev openexr
   nlohmann-json3-dev libcli11-dev
+  libopenblas-dev liblapacke-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
 )
 

@@ -5,10 +5,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <utility>
+
+#include <cblas.h>
+#include <lapacke.h>
 
 namespace brdf {
 namespace {
+
+// OpenBLAS would otherwise start a thread pool of its own under every caller's parallel_for.
+void single_threaded_blas() {
+    static std::once_flag once;
+    std::call_once(once, [] { openblas_set_num_threads(1); });
+}
 
 void require_same_shape(const Matrix& a, const Matrix& b, const char* op) {
     if (a.rows() != b.rows() || a.cols() != b.cols())
@@ -45,16 +55,7 @@ Matrix operator*(const Matrix& a, const Matrix& b) {
     if (a.cols() != b.rows())
         throw InputError(cat("matrix *: inner sizes differ (", a.cols(), " vs ", b.rows(), ")"));
     Matrix c(a.rows(), b.cols());
-    // i-k-j order: the inner loop runs along rows of b and c, which the compiler vectorises.
-    for (int i = 0; i < a.rows(); ++i) {
-        auto ci = c.row(i);
-        for (int k = 0; k < a.cols(); ++k) {
-            const double aik = a(i, k);
-            if (aik == 0.0) continue;
-            const auto bk = b.row(k);
-            for (int j = 0; j < b.cols(); ++j) ci[j] += aik * bk[j];
-        }
-    }
+    gemm(a, false, b, false, c);
     return c;
 }
 
@@ -142,6 +143,77 @@ void LuFactor::solve(std::span<double> b) const {
 Matrix solve(const Matrix& a, Matrix b) {
     LuFactor(a).solve(b);
     return b;
+}
+
+Matrix inverse(Matrix a) {
+    const int n = a.rows();
+    if (a.cols() != n) throw InputError(cat("inverse: matrix is not square (", n, "x", a.cols(), ")"));
+    Matrix x = Matrix::identity(n);
+    LuFactor(std::move(a)).solve(x);
+    return x;
+}
+
+void gemm(const Matrix& a, bool transpose_a, const Matrix& b, bool transpose_b, Matrix& c, double alpha, double beta) {
+    single_threaded_blas();
+    const int m = transpose_a ? a.cols() : a.rows();
+    const int k = transpose_a ? a.rows() : a.cols();
+    const int kb = transpose_b ? b.cols() : b.rows();
+    const int n = transpose_b ? b.rows() : b.cols();
+    if (k != kb) throw InputError(cat("gemm: inner sizes differ (", k, " vs ", kb, ")"));
+    if (beta != 0.0 && (c.rows() != m || c.cols() != n))
+        throw InputError(cat("gemm: C is ", c.rows(), "x", c.cols(), ", expected ", m, "x", n));
+    if (c.rows() != m || c.cols() != n) c = Matrix(m, n);
+    if (m == 0 || n == 0) return;
+    if (k == 0) {
+        c *= beta;
+        return;
+    }
+    cblas_dgemm(CblasRowMajor, transpose_a ? CblasTrans : CblasNoTrans, transpose_b ? CblasTrans : CblasNoTrans, m,
+                n, k, alpha, a.data().data(), std::max(1, a.cols()), b.data().data(), std::max(1, b.cols()), beta,
+                c.data().data(), std::max(1, n));
+}
+
+Matrix multiply_transposed(const Matrix& a, const Matrix& b) {
+    Matrix c;
+    gemm(a, false, b, true, c);
+    return c;
+}
+
+Matrix cholesky_lower(Matrix a) {
+    single_threaded_blas();
+    const int n = a.rows();
+    if (a.cols() != n) throw InputError(cat("Cholesky: matrix is not square (", n, "x", a.cols(), ")"));
+    if (n == 0) return a;
+    const lapack_int info = LAPACKE_dpotrf(LAPACK_ROW_MAJOR, 'L', n, a.data().data(), n);
+    if (info != 0)
+        throw NumericalError(cat("Cholesky: matrix is not positive definite (LAPACK dpotrf info ", info, ", size ", n, ")"));
+    for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j) a(i, j) = 0.0;
+    return a;
+}
+
+void solve_lower(const Matrix& l, Matrix& b, bool transpose) {
+    single_threaded_blas();
+    const int n = l.rows();
+    if (l.cols() != n || b.rows() != n)
+        throw InputError(cat("triangular solve: ", l.rows(), "x", l.cols(), " with ", b.rows(), " rows"));
+    if (n == 0 || b.cols() == 0) return;
+    cblas_dtrsm(CblasRowMajor, CblasLeft, CblasLower, transpose ? CblasTrans : CblasNoTrans, CblasNonUnit, n, b.cols(),
+                1.0, l.data().data(), n, b.data().data(), b.cols());
+}
+
+SymmetricEigen symmetric_eigen(Matrix a) {
+    single_threaded_blas();
+    const int n = a.rows();
+    if (a.cols() != n) throw InputError(cat("eigen: matrix is not square (", n, "x", a.cols(), ")"));
+    SymmetricEigen out;
+    out.values.resize(static_cast<std::size_t>(n));
+    if (n > 0) {
+        const lapack_int info = LAPACKE_dsyevd(LAPACK_ROW_MAJOR, 'V', 'L', n, a.data().data(), n, out.values.data());
+        if (info != 0) throw NumericalError(cat("eigen: LAPACK dsyevd failed (info ", info, ", size ", n, ")"));
+    }
+    out.vectors = std::move(a);
+    return out;
 }
 
 } // namespace brdf

@@ -1,7 +1,9 @@
 #pragma once
 // Small dense linear algebra for the per-order solvers (N up to a few hundred): row-major matrices,
-// products, and LU with partial pivoting. The OpenCL kernels implement the same operations in
-// work-group form (kernels/ambartsumian.cl); these are the plain C++ references.
+// products, LU with partial pivoting, Cholesky and the symmetric eigenproblem. Products go to BLAS
+// and factorisations to LAPACK (OpenBLAS, one thread per call: the callers run many independent
+// problems in parallel). The OpenCL kernels implement the same operations in work-group or serial
+// form (kernels/ambartsumian*.cl); they agree with these to rounding.
 
 #include <cstddef>
 #include <span>
@@ -61,5 +63,26 @@ private:
 
 /// A^-1 B.
 Matrix solve(const Matrix& a, Matrix b);
+/// A^-1 (LU with partial pivoting; NumericalError when singular).
+Matrix inverse(Matrix a);
+
+/// C = alpha op(A) op(B) + beta C, op = transpose when the flag is set; C must have the result's
+/// shape when beta != 0 (it is resized otherwise).
+void gemm(const Matrix& a, bool transpose_a, const Matrix& b, bool transpose_b, Matrix& c, double alpha = 1.0,
+          double beta = 0.0);
+/// A B^T.
+Matrix multiply_transposed(const Matrix& a, const Matrix& b);
+
+/// Lower triangular L with L L^T = A for a symmetric positive definite A (NumericalError otherwise).
+Matrix cholesky_lower(Matrix a);
+/// X = L^-1 B (transpose: L^-T B) for lower triangular L, in place.
+void solve_lower(const Matrix& l, Matrix& b, bool transpose = false);
+
+/// Eigenvalues (ascending) and orthonormal eigenvectors (columns) of a symmetric matrix.
+struct SymmetricEigen {
+    std::vector<double> values;
+    Matrix vectors;
+};
+SymmetricEigen symmetric_eigen(Matrix a);
 
 } // namespace brdf
