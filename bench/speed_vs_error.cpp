@@ -112,7 +112,7 @@ Row rte_method(const service::SolvedMaterial& base, rte::Method method, int max_
     std::vector<rte::Reflection> refl;
     int unconverged = 0, orders = 0;
     for (const service::Sample& s : base.samples) {
-        rte::ReflectionSetup setup = rte::setup_reflection(s.optics.medium, rte::Interface{s.optics.binder_index}, rs);
+        rte::StackSetup setup = rte::setup_reflection(s.optics.medium, rte::Interface{s.optics.binder_index}, rs);
         const auto problems = rte::order_problems(setup);
         auto sol = rte::solve_orders_cpu(problems, method, rs.control, threads());
         for (const auto& o : sol) unconverged += o.converged ? 0 : 1;

@@ -26,7 +26,7 @@ static_assert(offsetof(FillParams, phase_offset) == 8);
 static_assert(offsetof(FillParams, index_offset) == 16);
 static_assert(offsetof(FillParams, transmission_offset) == 24);
 static_assert(offsetof(FillParams, weight_offset) == 32);
-static_assert(offsetof(FillParams, first_cell) == 40);
+static_assert(offsetof(FillParams, tau_offset) == 40);
 static_assert(offsetof(FillParams, cell_count) == 48);
 static_assert(offsetof(FillParams, grid) == 56);
 static_assert(offsetof(FillParams, orders) == 60);
@@ -61,6 +61,7 @@ void validate(const FillInputs& in) {
     require_size(in.index.size(), s, "index");
     require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");
     require_size(in.weight.size(), s * 3, "weight");
+    require_size(in.tau.size(), s, "tau");
 }
 
 } // namespace
@@ -80,8 +81,8 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     params.index_offset = append(in.index);
     params.transmission_offset = append(in.transmission);
     params.weight_offset = append(in.weight);
+    params.tau_offset = append(in.tau);
     if (data.empty()) data.push_back(0.0);
-    params.first_cell = 0;
     params.cell_count = static_cast<brdf_i64>(formats::cells);
     params.grid = in.grid;
     params.orders = in.orders;

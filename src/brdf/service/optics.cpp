@@ -21,7 +21,7 @@ SpectralOptics particulate_optics(const material::MaterialSpec& spec, double wav
     // sigma_s = sum_i N_i Csca_i, sigma_e = sum_i N_i Cext_i + (1 - f) kappa_binder, and the mixed
     // phase function weights each pigment's by its scattering N_i Csca_i.
     std::vector<double> beta;
-    double sigma_s = 0.0, sigma_e = 0.0;
+    double sigma_s = 0.0, sigma_e = 0.0, sigma_a = 0.0;
     for (const material::PigmentSpec& pigment : spec.pigments) {
         const material::IndexSample index = pigment.index.model.at(wavelength_nm);
         const mie::Ensemble e = mie::ensemble({index.n, index.k}, out.binder_index, wavelength_nm, pigment.size, options);
@@ -39,17 +39,23 @@ SpectralOptics particulate_optics(const material::MaterialSpec& spec, double wav
         for (std::size_t l = 0; l < e.legendre.size(); ++l) beta[l] += s * e.legendre[l];
         sigma_s += s;
         sigma_e += p.number_density_um3 * e.cext_um2;
+        sigma_a += p.number_density_um3 * e.cabs_um2;
         out.pigments.push_back(p);
     }
     const double binder_fraction = std::max(0.0, 1.0 - spec.pigment_volume_fraction());
-    sigma_e += binder_fraction * spec.binder->absorption_per_mm * 1e-3;
+    const double binder_absorption = binder_fraction * spec.binder->absorption_per_mm * 1e-3;
+    sigma_e += binder_absorption;
+    sigma_a += binder_absorption;
     if (!(sigma_s > 0.0))
         throw NumericalError(cat(spec.source, ": pigments do not scatter at ", wavelength_nm, " nm"));
     for (double& b : beta) b /= sigma_s;
     beta[0] = 1.0;
     out.scattering_per_um = sigma_s;
     out.extinction_per_um = sigma_e;
-    out.medium.omega = std::clamp(sigma_s / sigma_e, 0.0, 1.0);
+    // 1 - absorption / extinction, with the absorption cross sections computed directly (not as
+    // Cext - Csca): exactly 1 for non-absorbing pigments in a clear binder, where the ratio of two
+    // separately rounded sums would give 1 - 1e-15, a near-critical case no solver needs to meet.
+    out.medium.omega = std::clamp(1.0 - sigma_a / sigma_e, 0.0, 1.0);
     out.medium.beta = std::move(beta);
     out.g = out.medium.beta.size() > 1 ? out.medium.beta[1] / 3.0 : 0.0;
     return out;

@@ -39,7 +39,7 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
                       {"legendre", s.optics.medium.beta.size()},
                       {"binder_index", s.optics.binder_index},
                       {"weight_rgb", s.weight},
-                      {"delta_m_fraction", setup.truncated.f},
+                      {"delta_m_fraction", setup.layers.front().truncated.f},
                       {"fourier_orders", setup.orders},
                       {"iterations", iterations},
                       {"residuals", residuals}};

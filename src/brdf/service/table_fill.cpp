@@ -13,7 +13,8 @@ namespace brdf::service {
 namespace {
 
 constexpr int phase_table_points = 8192;
-// T(mu) / n^2 / pi is smooth (linear near grazing): 2049 points interpolate it to ~1e-7.
+// A(mu) / (n sqrt(pi)) is smooth (linear near grazing for a half-space): 2049 points interpolate it to
+// ~1e-7.
 constexpr int fresnel_table_points = 2049;
 
 // Catmull-Rom weights for fractional position f in [0, 1) between taps 0 and 1 of (-1, 0, 1, 2).
@@ -55,43 +56,43 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
     in.grid = e;
     std::vector<double> mu(static_cast<std::size_t>(e));
     for (int a = 0; a < e; ++a) mu[a] = std::cos(0.5 * std::numbers::pi * a / (e - 1));
-    for (const Sample& s : material.samples) in.orders = std::max(in.orders, s.reflection.setup().orders);
+    for (const Sample& s : material.samples) in.orders = std::max(in.orders, s.reflection.orders());
     in.fourier.assign(static_cast<std::size_t>(in.orders) * 3 * e * e, 0.0);
-    in.samples = static_cast<int>(material.samples.size());
     in.phase_points = phase_table_points;
     in.fresnel_points = fresnel_table_points;
-    in.phase.resize(static_cast<std::size_t>(in.samples) * in.phase_points);
     // The Nystrom grids are the expensive part and independent per sample: one thread per core.
     std::vector<rte::OrderGrid> grids(material.samples.size());
-    parallel_for(in.samples, available_cpus(),
+    parallel_for(static_cast<int>(material.samples.size()), available_cpus(),
                  [&](int k) { grids[k] = material.samples[k].reflection.order_grid(mu); });
-    std::vector<double> factor_oi(static_cast<std::size_t>(e) * e);
-    for (int k = 0; k < in.samples; ++k) {
+    const double inv_sqrt_pi = 1.0 / std::sqrt(std::numbers::pi);
+    for (std::size_t k = 0; k < material.samples.size(); ++k) {
         const Sample& s = material.samples[k];
         const rte::Reflection& r = s.reflection;
         const rte::OrderGrid& g = grids[k];
-        for (int o = 0; o < e; ++o)
-            for (int i = 0; i < e; ++i) factor_oi[o * e + i] = r.transmission_factor(mu[o], mu[i]);
         for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
-            const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0);
+            const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::numbers::inv_pi;
             for (int c = 0; c < 3; ++c) {
                 if (s.weight[c] == 0.0) continue;
                 double* dst = &in.fourier[((static_cast<std::size_t>(m) * 3 + c) * e) * e];
                 for (int o = 0; o < e; ++o)
-                    for (int i = 0; i < e; ++i)
-                        dst[o * e + i] += s.weight[c] * factor * factor_oi[o * e + i] * g.orders[m](o, i);
+                    for (int i = 0; i < e; ++i) dst[o * e + i] += s.weight[c] * factor * g.orders[m](o, i);
             }
         }
-        const auto& medium = r.setup().medium;
-        for (int p = 0; p < in.phase_points; ++p) {
-            const double x = static_cast<double>(p) / (in.phase_points - 1); // sin(Theta / 2)
-            in.phase[static_cast<std::size_t>(k) * in.phase_points + p] =
-                0.25 * r.single_scattering_albedo() * rte::phase_value(medium.beta, 1.0 - 2.0 * x * x);
+        if (r.setup().stack.top == rte::Top::Rough) continue; // no TMS under a rough surface
+        for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer) {
+            const rte::Reflection::ScatteringLayer l = r.scattering_layer(layer);
+            for (int p = 0; p < in.phase_points; ++p) {
+                const double x = static_cast<double>(p) / (in.phase_points - 1); // sin(Theta / 2)
+                in.phase.push_back(0.25 * l.albedo * rte::phase_value(*l.beta, 1.0 - 2.0 * x * x));
+            }
+            in.index.push_back(l.index);
+            in.tau.push_back(l.tau);
+            for (int p = 0; p < fresnel_table_points; ++p)
+                in.transmission.push_back(r.path_factor(layer, static_cast<double>(p) / (fresnel_table_points - 1)) *
+                                          inv_sqrt_pi);
+            for (int c = 0; c < 3; ++c) in.weight.push_back(s.weight[c]);
+            ++in.samples;
         }
-        in.index.push_back(r.setup().interface.n);
-        for (int p = 0; p < fresnel_table_points; ++p)
-            in.transmission.push_back(r.transmission_factor(1.0, static_cast<double>(p) / (fresnel_table_points - 1)));
-        for (int c = 0; c < 3; ++c) in.weight.push_back(s.weight[c]);
     }
     return in;
 }
@@ -129,10 +130,11 @@ Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi)
         const double ui = std::sqrt(1.0 - sin_i * sin_i * inv_n2), uo = std::sqrt(1.0 - sin_o * sin_o * inv_n2);
         const double cos_scatter = std::clamp(-uo * ui - sin_o * sin_i * inv_n2 * c1, -1.0, 1.0);
         const double phase = lerp_table(&in.phase[static_cast<std::size_t>(s) * kp], kp, std::sqrt(0.5 * (1.0 - cos_scatter)));
-        // tab(mu) = T(1) T(mu) / (n^2 pi), so T(mu_o) T(mu_i) / (n^2 pi) = tab(mu_o) tab(mu_i) / tab(1).
+        // tab(mu) = A(mu) / (n sqrt(pi)): the term's factor A(mu_o) A(mu_i) / (n^2 pi).
         const double* t = &in.transmission[static_cast<std::size_t>(s) * kf];
-        const double factor = lerp_table(t, kf, mu_o) * lerp_table(t, kf, mu_i) / t[kf - 1];
-        const double v = factor * phase / (uo + ui);
+        const double factor = lerp_table(t, kf, mu_o) * lerp_table(t, kf, mu_i);
+        const double slab = std::isinf(in.tau[s]) ? 1.0 : -std::expm1(-in.tau[s] * (1.0 / uo + 1.0 / ui));
+        const double v = factor * phase / (uo + ui) * slab;
         for (int c = 0; c < 3; ++c) out[c] += in.weight[s * 3 + c] * v;
     }
     for (double& v : out) v = std::max(0.0, v);

@@ -19,17 +19,20 @@ namespace brdf::service {
 struct FillInputs {
     int grid = 0;   ///< E: zenith angles theta_a = a / (E - 1) * 90 degrees, a = 0 .. E - 1
     int orders = 0; ///< M
-    /// fourier[((m * 3 + c) * E + o) * E + i]: (2 - delta_m0) (-1)^m R^m_c(theta_o, theta_i) in 1/sr,
-    /// interface factors included, single scattering of the truncated phase function removed.
+    /// fourier[((m * 3 + c) * E + o) * E + i]: (2 - delta_m0) (-1)^m R^m_c(theta_o, theta_i) / pi in
+    /// 1/sr, interface factors included, single scattering on the direct paths removed.
     std::vector<double> fourier;
-    int samples = 0;      ///< S: wavelengths (or channels) with their own single scattering
+    /// S: single-scattering terms, one per wavelength (or channel) and layer, each with its own
+    /// refraction (Reflection::single_scattering).
+    int samples = 0;
     int phase_points = 0; ///< K: phase[s * K + k] = (w_s / 4) p_s at sin(Theta/2) = k / (K - 1)
     std::vector<double> phase;
-    std::vector<double> index;  ///< [s]: binder index (1: no interface)
-    /// F: transmission[s * F + k] = T_s(1) T_s(mu_k) / (n_s^2 pi), mu_k = k / (F - 1): the interface
-    /// factor of Reflection::transmission_factor as a table (1/pi without an interface).
+    std::vector<double> index;  ///< [s]: the layer's index (1: no interface)
+    /// F: transmission[s * F + k] = A(mu_k) / (n sqrt(pi)), mu_k = k / (F - 1): the layer's path
+    /// factor (Reflection::path_factor) as a table, so the term's factor is t(mu_o) t(mu_i).
     int fresnel_points = 0;
     std::vector<double> transmission;
+    std::vector<double> tau;    ///< [s]: the layer's (delta-M scaled) optical thickness, infinite for a half-space
     std::vector<double> weight; ///< [s * 3 + c]
 };
 
