@@ -53,6 +53,9 @@ public:
     void clear();
 
 private:
+    /// beta_0 .. beta_{l_last} of the accumulated intensity (integral `total`), untruncated.
+    std::vector<double> project(std::size_t half, int l_last, double total) const;
+
     int m_max_terms;
     std::shared_ptr<const Quadrature> m_rule;
     std::vector<double> m_mu;     ///< the positive nodes mu_j, j = 0 .. max_terms
