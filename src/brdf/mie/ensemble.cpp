@@ -67,6 +67,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <functional>
 #include <memory>
 #include <numbers>
 
@@ -544,6 +545,28 @@ int carve_windows(std::vector<Window>& resonances, std::vector<Panel>& panels, d
 //   sized for the largest node that may need intensities, bounded with 1.5 times the largest Qsca
 //   seen on the first level.
 
+/// Reports progress as the estimated error falls from its first value towards the target, on a
+/// log scale (the work grows about that way), never backwards and below 1 until the end.
+class Progress {
+public:
+    explicit Progress(const std::function<void(double)>& callback) : m_callback(callback) {}
+    void error(double estimate, double target) {
+        if (!m_callback || !(estimate > 0.0) || !std::isfinite(estimate)) return;
+        if (m_first == 0.0) m_first = std::max(estimate, 10.0 * target);
+        const double f = std::log(m_first / estimate) / std::log(m_first / target);
+        report(std::clamp(0.05 + 0.9 * f, 0.0, 0.95));
+    }
+    void report(double fraction) {
+        if (!m_callback || fraction < m_last) return;
+        m_last = fraction;
+        m_callback(fraction);
+    }
+
+private:
+    const std::function<void(double)>& m_callback;
+    double m_first = 0.0, m_last = -1.0;
+};
+
 /// t = ln x as a function of the rule's variable s, and dt/ds.
 struct NestedMap {
     bool tanh_sinh = false;
@@ -779,7 +802,7 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     std::vector<double> beta, prev_beta; // projections of this level and the one before (or empty)
     double d_cross_before = 0.0, d_phase_before = 0.0;
     double error = std::numeric_limits<double>::infinity();
-    double first_error = 0.0;
+    Progress progress(options.progress);
     const int extra_levels = options.refinement > 1 ? static_cast<int>(std::ceil(std::log2(options.refinement))) : 0;
     int converged_levels = -1; // levels still to add after convergence (refinement studies)
     for (int level = 1;; ++level) {
@@ -819,9 +842,7 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
         d_cross_before = d_cross;
         d_phase_before = d_phase;
         error = std::max(e_cross, e_phase) + booked;
-        if (level == 1) first_error = error;
-        if (options.progress && converged_levels < 0 && error > 0.0 && first_error > tol)
-            options.progress(std::clamp(std::log(first_error / error) / std::log(first_error / tol), 0.0, 0.95));
+        if (converged_levels < 0) progress.error(error, target);
         if (converged_levels < 0 && level >= 2 && e_cross <= target && e_phase <= target) converged_levels = extra_levels;
         if (converged_levels == 0) break;
         if (converged_levels > 0) --converged_levels;
@@ -913,7 +934,7 @@ Ensemble ensemble(Complex particle_index, double medium_index, double wavelength
         finish(out, r.total, std::move(r.legendre));
         out.radius_nodes = r.nodes;
         out.error_estimate = r.error_estimate;
-        if (options.progress) options.progress(1.0);
+        Progress(options.progress).report(1.0);
         return out;
     }
     PhaseFunctionAccumulator phase(series_length(out.x_max));
@@ -1041,6 +1062,9 @@ Ensemble ensemble(Complex particle_index, double medium_index, double wavelength
         for (const Panel& p : panels) leaves.push_back(make_leaf(p));
         const bool absorbing = out.m.imag() > 0.0;
         const long evaluation_cap = 3L * options.max_nodes;
+        Progress progress(options.progress);
+        long iterations = 0;
+        progress.report(0.05); // the resonances are located
         for (;;) {
             Sums value, error;
             for (const Leaf& l : leaves) value += l.value, error += leaf_error(l);
@@ -1059,6 +1083,7 @@ Ensemble ensemble(Complex particle_index, double medium_index, double wavelength
             const double panels_error = relative(error);
             out.error_estimate = panels_error + booked_relative;
             if (!(panels_error > target)) break;
+            if (++iterations % 64 == 0) progress.error(panels_error, target);
             if (f.evaluations() > evaluation_cap) {
                 log::warn("Mie ensemble: radius integration stopped at ", f.evaluations(),
                           " evaluations with estimated error ", out.error_estimate, " > ", tol);
@@ -1112,7 +1137,7 @@ Ensemble ensemble(Complex particle_index, double medium_index, double wavelength
     }
 
     finish(out, total, phase.legendre(options.legendre));
-    if (options.progress) options.progress(1.0);
+    Progress(options.progress).report(1.0);
     return out;
 }
 
