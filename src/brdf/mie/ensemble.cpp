@@ -3,7 +3,8 @@
 // The radius integral, in size parameter x = k r (k = 2 pi n_h / lambda), is
 //   <C> = int n(r) pi r^2 Q(x) dr = int w(x) Q(x) dx,   w(x) = n(x/k) pi (x/k)^2 / k,
 // with n normalised over the untruncated distribution (size_distribution.h), so the means are per
-// particle. Three ingredients make it accurate and cheap:
+// particle. Large spheres without sharp resonances take the nested rule further down
+// (integrate_nested); everything else the panels, where three ingredients make it accurate and cheap:
 //
 // 1. Sharp resonances first. For Re m > 1 the coefficients a_n, b_n with x < n + 1/2 < m x have
 //    resonances of half width down to 1e-12 in x (at m = 2, x < 24: about 20 per decade of width

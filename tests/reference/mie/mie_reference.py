@@ -4,7 +4,7 @@
 Run from the repository root (takes a few minutes, mostly the complex Bessel functions at x = 1000):
     python3 tests/reference/mie/mie_reference.py > tests/reference/mie/mie_reference.json
 and, for the size-distribution averages of large spheres (matting agents; about 15 minutes, see
-matting_main below):
+the comment above matting_main):
     python3 tests/reference/mie/mie_reference.py matting > tests/reference/mie/matting_reference.json
 miepython (and numpy) are installed with pip when missing.
 
@@ -228,8 +228,9 @@ def main():
 # all radii, with N_max + 20 nodes (N_max: miepython's series length at the largest radius), exact for
 # the moments beta_0 .. beta_16 of every sphere's intensity (a polynomial of degree 2N; times P_l,
 # degree <= 2 N_max + 16 <= 2 (N_max + 20) - 1). The radius integral: composite Gauss-Legendre, 8 nodes
-# per panel, panels 0.02 wide in ln r (270 panels, 2160 radii); convergence: the same with panels 0.04
-# wide (the largest relative change is written as "convergence"). Averages per particle; efficiencies
+# per panel, panels 0.04 wide in ln r (135 panels, 1080 radii); convergence: the same with panels 0.08
+# wide (the largest change, relative for the cross sections, absolute for g and chi_l = beta_l/(2l+1),
+# is written as "convergence"). Averages per particle; efficiencies
 # <C> / <pi r^2> with <pi r^2> = pi a^2 (1 - b)(1 - 2b) (exact for the untruncated gamma); g =
 # <Csca g> / <Csca>; legendre: beta_l of the averaged phase function sum C_sca p / sum C_sca, beta_0 = 1.
 
@@ -315,8 +316,8 @@ def matting_main():
     cases = []
     for r_eff in (5.0, 40.0):
         for nm in (450.0, 550.0, 700.0):
-            fine = matting_average(np, miepython, r_eff, 0.1, nm, 0.02)
-            coarse = matting_average(np, miepython, r_eff, 0.1, nm, 0.04)
+            fine = matting_average(np, miepython, r_eff, 0.1, nm, 0.04)
+            coarse = matting_average(np, miepython, r_eff, 0.1, nm, 0.08)
             change = max(abs(coarse[q] / fine[q] - 1) for q in ("cext_um2", "csca_um2"))
             change = max(change, abs(coarse["g"] - fine["g"]))
             change = max(change, max(abs(a - b) / (2 * l + 1) for l, (a, b) in
