@@ -1,7 +1,7 @@
 // The nested radius rule for large spheres without sharp resonances (ensemble.cpp): against an
-// independent brute-force distribution average of matting agents (miepython), against the panel rule
-// (exact series on adaptive Gauss-Kronrod panels, ~100 times more accurate than its tolerance) where
-// the automatic choice switches, under doubled resolution, and the progress callback.
+// independent brute-force distribution average of matting agents (miepython), against the panel
+// rule (exact series on adaptive Gauss-Kronrod panels, ~100 times more accurate than its tolerance)
+// where the automatic choice switches, under doubled resolution, and the progress callback.
 
 #include <brdf/core/error.h>
 #include <brdf/mie/ensemble.h>
@@ -27,8 +27,9 @@ struct Difference {
 
 Difference difference(const Ensemble& a, const Ensemble& b) {
     Difference d;
-    d.cross = std::max({std::abs(a.cext_um2 / b.cext_um2 - 1.0), std::abs(a.csca_um2 / b.csca_um2 - 1.0),
-                        b.cabs_um2 > 0.0 ? std::abs(a.cabs_um2 / b.cabs_um2 - 1.0) : 0.0});
+    d.cross =
+        std::max({std::abs(a.cext_um2 / b.cext_um2 - 1.0), std::abs(a.csca_um2 / b.csca_um2 - 1.0),
+                  b.cabs_um2 > 0.0 ? std::abs(a.cabs_um2 / b.cabs_um2 - 1.0) : 0.0});
     d.g = std::abs(a.g - b.g);
     for (std::size_t l = 0; l < std::max(a.legendre.size(), b.legendre.size()); ++l) {
         const double x = l < a.legendre.size() ? a.legendre[l] : 0.0;
@@ -40,10 +41,10 @@ Difference difference(const Ensemble& a, const Ensemble& b) {
 }
 
 // Matting agents, silica spheres in acrylic (m ~ 0.98), gamma distributions r_eff = 5 and 40 um,
-// v_eff = 0.1, at 450, 550, 700 nm, against tests/reference/mie/mie_reference.py matting: miepython's
-// series, a brute-force composite Gauss rule over 2160 radii (converged to the "convergence" it
-// states) and an exact angular rule for the first 17 moments. At the tolerance "default" accuracy
-// asks of Mie (1e-5, service/model.cpp) every quantity must agree within it.
+// v_eff = 0.1, at 450, 550, 700 nm, against tests/reference/mie/mie_reference.py matting:
+// miepython's series, a brute-force composite Gauss rule over 2160 radii (converged to the
+// "convergence" it states) and an exact angular rule for the first 17 moments. At the tolerance
+// "default" accuracy asks of Mie (1e-5, service/model.cpp) every quantity must agree within it.
 TEST(NestedRule, MattingAgentsMatchBruteForceReference) {
     std::ifstream in(test::source_dir() / "tests/reference/mie/matting_reference.json");
     ASSERT_TRUE(in) << "missing matting_reference.json";
@@ -55,8 +56,9 @@ TEST(NestedRule, MattingAgentsMatchBruteForceReference) {
         ASSERT_LT(c["convergence"].get<double>(), 1e-7); // the reference is good enough to judge by
         EnsembleOptions options;
         options.tolerance = 1e-5;
-        const Ensemble e = ensemble({c["particle_index"].get<double>(), 0.0}, c["medium_index"].get<double>(),
-                                    nm, gamma(r_eff, c["v_eff"].get<double>()), options);
+        const Ensemble e =
+            ensemble({c["particle_index"].get<double>(), 0.0}, c["medium_index"].get<double>(), nm,
+                     gamma(r_eff, c["v_eff"].get<double>()), options);
         EXPECT_EQ(e.rule, RadiusRule::nested);
         EXPECT_LE(e.error_estimate, options.tolerance);
         EXPECT_REL_NEAR(e.qext, c["qext"].get<double>(), options.tolerance);
@@ -129,9 +131,15 @@ TEST(NestedRule, AutomaticChoice) {
     EnsembleOptions options;
     options.rule = RadiusRule::nested;
     test::expect_error_mentions<InputError>(
-        [&] { ensemble({2.0, 0.0}, 1.5, 550.0, gamma(1.0, 0.1), options); }, "sharp resonances");
+        [&] {
+            ensemble({2.0, 0.0}, 1.5, 550.0, gamma(1.0, 0.1), options);
+        },
+        "sharp resonances");
     test::expect_error_mentions<InputError>(
-        [&] { ensemble({1.46, 0.0}, 1.49, 550.0, monodisperse(10.0), options); }, "size distribution");
+        [&] {
+            ensemble({1.46, 0.0}, 1.49, 550.0, monodisperse(10.0), options);
+        },
+        "size distribution");
 }
 
 // refinement = 2 halves the step once more (twice the nodes, as for the panels); the results must

@@ -522,21 +522,21 @@ int carve_windows(std::vector<Window>& resonances, std::vector<Panel>& panels, d
 //
 // Where no resonance is sharp (Re m <= 1: no internal reflection; or k/n >= 1e-2: damped), the
 // integrand is smooth in ln x on the scale of the distribution, but the angular work of one radius
-// grows as N x_max (N ~ x terms on an angular rule of 2 x_max nodes): 5 ms at x ~ 1500 on the rule of
-// x_max ~ 4000. The averaged quantities are what must be accurate, not each sphere, so the rule is
-// chosen for them:
+// grows as N x_max (N ~ x terms on an angular rule of 2 x_max nodes): 5 ms at x ~ 1500 on the rule
+// of x_max ~ 4000. The averaged quantities are what must be accurate, not each sphere, so the rule
+// is chosen for them:
 // - In t = ln x the weight w(x) x of a gamma or log-normal distribution decays at both ends of
 //   [x_min, x_max] (tails of 5e-9, size_distribution.h), so the trapezoid rule converges
-//   geometrically (exponentially in 1/h for an integrand analytic in a strip; Trefethen and Weideman
-//   2014, SIAM Rev. 56, 385, section 5). For the power law the density does not vanish at r1, r2;
-//   the tanh-sinh map t = c + d tanh((pi/2) sinh s) (Takahasi and Mori 1974) makes the integrand in s
-//   decay double exponentially, and the trapezoid rule in s converges the same way.
+//   geometrically (exponentially in 1/h for an integrand analytic in a strip; Trefethen and
+//   Weideman 2014, SIAM Rev. 56, 385, section 5). For the power law the density does not vanish at
+//   r1, r2; the tanh-sinh map t = c + d tanh((pi/2) sinh s) (Takahasi and Mori 1974) makes the
+//   integrand in s decay double exponentially, and the trapezoid rule in s converges the same way.
 // - Halving the step keeps every node (nested): T(h) = T(2h)/2 + h sum_new f. The difference
 //   d(h) = |T(h) - T(2h)| of each averaged quantity (<Cext>, <Csca>, <Cabs> relative, g and every
-//   chi_l = beta_l/(2l+1) absolute) measures the error of T(2h); with geometric convergence the error
-//   of T(h) is about r d(h), r = d(h)/d(2h). The estimate used is max(r, 1/4) d(h) (never assume
-//   more than a factor 4 per halving), and d(h) itself until the differences decrease. Measured on
-//   silica in acrylic (docs/mie.md): the estimate is 1.2 to 7 times the true error.
+//   chi_l = beta_l/(2l+1) absolute) measures the error of T(2h); with geometric convergence the
+//   error of T(h) is about r d(h), r = d(h)/d(2h). The estimate used is max(r, 1/4) d(h) (never
+//   assume more than a factor 4 per halving), and d(h) itself until the differences decrease.
+//   Measured (docs/mie.md, tests/mie/nested_rule_test.cpp): 0.9 to 25 times the true error.
 // - The features that need the most nodes are in the moments near l = 2x (each sphere's moments
 //   fall from ~1e-2 to 0 over l ~ 2x +- 4 x^(1/3)): 65-130 nodes at r_eff = 5 um, 250-500 at 40 um.
 //   Cross sections converge with far fewer.
@@ -582,11 +582,11 @@ struct NestedMap {
 };
 
 /// Accumulated intensities of the nested rule on up to three angular rules: one for the largest
-/// series, and halves and quarters of it for the smaller spheres. A sphere of N terms needs a rule of
-/// N + 1 node pairs only (phase_function.h), and its intensities cost N per pair, so with one rule for
-/// all the many small spheres would cost as much per pair as the largest: measured, the groups save
-/// a third of the angular work at r_eff = 40 um. The moments of the groups are combined with their
-/// integrals as weights (beta_l = sum_g I_g beta_l^g / sum_g I_g).
+/// series, and halves and quarters of it for the smaller spheres. A sphere of N terms needs a rule
+/// of N + 1 node pairs only (phase_function.h), and its intensities cost N per pair, so with one
+/// rule for all the many small spheres would cost as much per pair as the largest: measured, the
+/// groups save a third of the angular work at r_eff = 40 um. The moments of the groups are combined
+/// with their integrals as weights (beta_l = sum_g I_g beta_l^g / sum_g I_g).
 class GroupedIntensities {
 public:
     explicit GroupedIntensities(int max_terms) {
@@ -664,11 +664,14 @@ struct NestedResult {
 /// Relative change of each cross section (g absolute), the largest.
 double cross_section_change(const Sums& now, const Sums& before, bool absorbing) {
     double d = 0.0;
-    const auto rel = [](double a, double b) { return b != 0.0 ? std::abs(a / b - 1.0) : std::abs(a - b); };
+    const auto rel = [](double a, double b) {
+        return b != 0.0 ? std::abs(a / b - 1.0) : std::abs(a - b);
+    };
     d = std::max(d, rel(now.sca + now.abs, before.sca + before.abs));
     d = std::max(d, rel(now.sca, before.sca));
     if (absorbing) d = std::max(d, rel(now.abs, before.abs));
-    if (now.sca > 0.0 && before.sca > 0.0) d = std::max(d, std::abs(now.gsca / now.sca - before.gsca / before.sca));
+    if (now.sca > 0.0 && before.sca > 0.0)
+        d = std::max(d, std::abs(now.gsca / now.sca - before.gsca / before.sca));
     return d;
 }
 
@@ -685,7 +688,7 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     Integrand f(m, k, sizes);
     NestedMap map;
     const double t_min = std::log(x_min), t_max = std::log(x_max);
-    Sums tails; // the trimmed tails' cross sections (line map), um^2
+    Sums tails;        // the trimmed tails' cross sections (line map), um^2
     int intervals = 0; // level 0
     if (sizes.kind() == DistributionKind::PowerLaw) {
         map.tanh_sinh = true;
@@ -698,9 +701,10 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     } else {
         // Trim the far tails: [t_min, t_max] keeps all but 1e-8 of the distribution, but the
         // trapezoid nodes there cost as much as any (the upper tail's the most: N is largest). The
-        // rule covers [t_lo, t_hi], outside which a bound of the <Csca> density, w(x) x 1.5 max Qsca
-        // (Qsca sampled at nine sizes), holds at most 0.01 tol of its total per side; the tails' cross
-        // sections come from 16-point Gauss rules, their intensities are left out (booked).
+        // rule covers [t_lo, t_hi], outside which a bound of the <Csca> density, w(x) x 1.5 max
+        // Qsca (Qsca sampled at nine sizes), holds at most 0.01 tol of its total per side; the
+        // tails' cross sections come from 16-point Gauss rules, their intensities are left out
+        // (booked).
         double q_max = 0.0;
         for (int j = 0; j <= 8; ++j) {
             const double x = std::exp(t_min + (t_max - t_min) * j / 8.0);
@@ -714,7 +718,8 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
             return f.weight(x) * x * 1.5 * q_max;
         };
         for (int i = 1; i <= grid; ++i)
-            cumulative[i] = cumulative[i - 1] + 0.5 * (bound(i - 1) + bound(i)) * (t_max - t_min) / grid;
+            cumulative[i] =
+                cumulative[i - 1] + 0.5 * (bound(i - 1) + bound(i)) * (t_max - t_min) / grid;
         const double allowed = 0.01 * tol * cumulative[grid];
         int i_lo = 0, i_hi = grid;
         while (i_lo + 1 < grid && cumulative[i_lo + 1] <= allowed) ++i_lo;
@@ -732,7 +737,9 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
         }
         intervals = std::max(8, static_cast<int>(std::ceil((map.s_hi - map.s_lo) / 0.25)));
     }
-    const auto x_at = [&](double s) { return std::exp(map.t(map.s_lo + (map.s_hi - map.s_lo) * s)); };
+    const auto x_at = [&](double s) {
+        return std::exp(map.t(map.s_lo + (map.s_hi - map.s_lo) * s));
+    };
     // Node j of level L sits at s = j / (intervals 2^L) in [0, 1] (scaled); its trapezoid weight in
     // x is h dx/ds (halved at the two ends).
     const auto dx_ds = [&](double s) {
@@ -743,7 +750,7 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     // Level 0: cross sections only, to size the angular rule.
     struct Node {
         double s, x, weight_density; // weight_density: dx/ds (without the step h)
-        Sums value;                 // w(x) Q(x) dx/ds
+        Sums value;                  // w(x) Q(x) dx/ds
     };
     std::vector<Node> level0;
     double qsca_max = 0.0;
@@ -757,9 +764,11 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     }
     Sums total;
     double h = 1.0 / intervals;
-    for (const Node& n : level0) total += n.value.scaled(h * ((n.s == 0.0 || n.s == 1.0) ? 0.5 : 1.0));
-    // A node needs its intensities when its share density of <Csca> (per unit s, relative) may reach
-    // skip_density: its contribution h w Q dx/ds is then >= 1e-4 tol of the total at any step h.
+    for (const Node& n : level0)
+        total += n.value.scaled(h * ((n.s == 0.0 || n.s == 1.0) ? 0.5 : 1.0));
+    // A node needs its intensities when its share density of <Csca> (per unit s, relative) may
+    // reach skip_density: its contribution h w Q dx/ds is then >= 1e-4 tol of the total at any step
+    // h.
     const double skip_density = 1e-4 * tol * total.sca;
     const double q_bound = 1.5 * qsca_max;
     // The largest x whose bound w(x) q_bound dx/ds can exceed that, scanned finely (no Mie needed).
@@ -767,7 +776,8 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     for (int j = 0; j <= 64 * intervals; ++j) {
         const double s = static_cast<double>(j) / (64 * intervals);
         const double x = x_at(s);
-        if (f.weight(x) * q_bound * dx_ds(s) >= skip_density) x_intensity_max = std::max(x_intensity_max, x);
+        if (f.weight(x) * q_bound * dx_ds(s) >= skip_density)
+            x_intensity_max = std::max(x_intensity_max, x);
     }
     x_intensity_max = std::min(x_max, x_intensity_max * 1.001);
     if (!(options.legendre.tolerance >= 0.0) || options.legendre.max_terms < 0)
@@ -804,13 +814,14 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     double d_cross_before = 0.0, d_phase_before = 0.0;
     double error = std::numeric_limits<double>::infinity();
     Progress progress(options.progress);
-    const int extra_levels = options.refinement > 1 ? static_cast<int>(std::ceil(std::log2(options.refinement))) : 0;
+    const int extra_levels =
+        options.refinement > 1 ? static_cast<int>(std::ceil(std::log2(options.refinement))) : 0;
     int converged_levels = -1; // levels still to add after convergence (refinement studies)
     for (int level = 1;; ++level) {
         const int count = intervals << level; // intervals at this level
         if (count + 1 > options.max_nodes)
-            throw LimitError(cat("Mie ensemble: ", count + 1, " radius nodes needed, more than the limit ",
-                                 options.max_nodes));
+            throw LimitError(cat("Mie ensemble: ", count + 1,
+                                 " radius nodes needed, more than the limit ", options.max_nodes));
         prev_total = total;
         prev_state = intensities.state();
         prev_beta = std::move(beta);
@@ -844,7 +855,8 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
         d_phase_before = d_phase;
         error = std::max(e_cross, e_phase) + booked;
         if (converged_levels < 0) progress.error(error, target);
-        if (converged_levels < 0 && level >= 2 && e_cross <= target && e_phase <= target) converged_levels = extra_levels;
+        if (converged_levels < 0 && level >= 2 && e_cross <= target && e_phase <= target)
+            converged_levels = extra_levels;
         if (converged_levels == 0) break;
         if (converged_levels > 0) --converged_levels;
     }
@@ -854,8 +866,8 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     out.nodes = nodes;
     out.error_estimate = error;
     out.legendre = truncated(std::move(beta), options.legendre);
-    log::debug("Mie ensemble (nested rule): ", nodes, " nodes, angular rule for x <= ", x_intensity_max,
-               ", estimated error ", error);
+    log::debug("Mie ensemble (nested rule): ", nodes,
+               " nodes, angular rule for x <= ", x_intensity_max, ", estimated error ", error);
     return out;
 }
 
@@ -923,12 +935,14 @@ Ensemble ensemble(Complex particle_index, double medium_index, double wavelength
     const bool resonant = out.m.real() > 1.0 && out.m.imag() < 1e-2 * out.m.real();
     const bool distribution = sizes.kind() != DistributionKind::Monodisperse;
     if (options.rule == RadiusRule::nested && (resonant || !distribution))
-        throw InputError(cat("Mie ensemble: the nested radius rule needs a size distribution without "
-                             "sharp resonances (Re m <= 1 or k/n >= 1e-2; got m = ", out.m.real(), "+",
-                             out.m.imag(), "i)"));
-    const bool nested = distribution && !resonant &&
-                        (options.rule == RadiusRule::nested ||
-                         (options.rule == RadiusRule::automatic && out.x_max >= nested_rule_min_size_parameter));
+        throw InputError(
+            cat("Mie ensemble: the nested radius rule needs a size distribution without "
+                "sharp resonances (Re m <= 1 or k/n >= 1e-2; got m = ",
+                out.m.real(), "+", out.m.imag(), "i)"));
+    const bool nested =
+        distribution && !resonant &&
+        (options.rule == RadiusRule::nested ||
+         (options.rule == RadiusRule::automatic && out.x_max >= nested_rule_min_size_parameter));
     out.rule = nested ? RadiusRule::nested : RadiusRule::panels;
     if (nested) {
         NestedResult r = integrate_nested(out.m, k, sizes, out.x_min, out.x_max, options);
