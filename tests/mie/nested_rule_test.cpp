@@ -53,7 +53,7 @@ TEST(NestedRule, MattingAgentsMatchBruteForceReference) {
     for (const auto& c : ref["cases"]) {
         const double r_eff = c["r_eff_um"].get<double>(), nm = c["wavelength_nm"].get<double>();
         SCOPED_TRACE(testing::Message() << "r_eff " << r_eff << " um, " << nm << " nm");
-        ASSERT_LT(c["convergence"].get<double>(), 1e-7); // the reference is good enough to judge by
+        ASSERT_LT(c["convergence"].get<double>(), 1e-6); // good enough to judge a 1e-5 tolerance by
         EnsembleOptions options;
         options.tolerance = 1e-5;
         const Ensemble e =

@@ -615,8 +615,9 @@ public:
     }
     const State& state() const { return m_sums; }
 
-    /// All moments beta_0 .. (no truncation) of `state` (this object's or an earlier copy).
-    std::vector<double> moments(const State& state) const {
+    /// All moments beta_0 .. (no truncation) of `state` (this object's or an earlier copy); uses
+    /// the rules' own sums as scratch.
+    std::vector<double> moments(const State& state) {
         std::vector<double> beta;
         double total = 0.0;
         LegendreOptions all;
