@@ -96,8 +96,8 @@ std::string short_number(double v) {
     return os.str();
 }
 
-// What keeps the colour when `space` cannot: the wider spaces (AP1 contains BT.2020, which
-// contains BT.709, up to slivers of no practical concern) and the spectral output.
+// What keeps the colour when `space` cannot: the wider spaces (AP1's triangle contains BT.2020's,
+// which contains BT.709's) and the spectral output.
 std::string_view wider_advice(ColorSpace space) {
     switch (space) {
     case ColorSpace::Rec709:
@@ -418,8 +418,9 @@ void check_gamut_fit(const GamutFitInput& in, const GamutFit& fit) {
         const ProbeColours after = probe_colours(fit.weights, values, count, lum);
         for (std::size_t i = 0; i < count; ++i) {
             // 1e-10 of the terms' size: far above rounding (1e-16 per term), far below any real
-            // change (a probe's luminance is at least 1e-4 of its size: ybar / (xbar + zbar) at the
-            // ends of the visible range).
+            // change: with non-negative BRDF values a probe's luminance is at least 4e-3 of that
+            // size (the smallest Y / |w|_1 of a "visible" weight, at 380 nm), so a change of 3e-8
+            // of the luminance is caught.
             if (!(std::abs(after.luminance[i] - before.luminance[i]) <= 1e-10 * before.magnitude[i]))
                 internal(cat("changed the luminance of ", in.material, " (", kind, " ", i, ": ",
                              before.luminance[i], " -> ", after.luminance[i], ")"));
