@@ -202,6 +202,10 @@ void write_rgl_bsdf(const std::filesystem::path& path, const RglBsdf& b) {
             throw NumericalError(cat(where, ": field '", b.spectral() ? "spectra" : "rgb",
                                      "': value ", b.values.values[k], " at index ",
                                      index_text(b.values.shape, k), " is negative"));
+    write_tensor_file(path, rgl_tensor_fields(b));
+}
+
+TensorFile rgl_tensor_fields(const RglBsdf& b) {
     const auto shape64 = [](const std::vector<std::size_t>& s) {
         return std::vector<std::uint64_t>(s.begin(), s.end());
     };
@@ -226,7 +230,7 @@ void write_rgl_bsdf(const std::filesystem::path& path, const RglBsdf& b) {
         std::vector<unsigned char>(b.description.begin(), b.description.end())));
     file.fields.push_back(TensorField::uint8(
         "jacobian", {1}, {static_cast<unsigned char>(b.jacobian ? 1 : 0)}));
-    write_tensor_file(path, file);
+    return file;
 }
 
 } // namespace brdf::formats

@@ -29,6 +29,8 @@
 // Grid index order is row-major with the last index fastest, so a BRDF sample is
 // values[((p * T + t) * L + l) * n * n + y * n + x] for sample coordinates (x, y) / (n - 1).
 
+#include <formats/rgl/tensor_file.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -84,8 +86,11 @@ std::string rgl_bsdf_fault(const RglBsdf& bsdf);
 /// Throws IoError, FormatError or LimitError.
 RglBsdf read_rgl_bsdf(const std::filesystem::path& path);
 
-/// Writes `bsdf` atomically as a tensor file with the fields above, in the order theta_i, phi_i,
-/// ndf, sigma, vndf, luminance, spectra + wavelengths (or rgb), description, jacobian. Throws
+/// The tensor fields of `bsdf`, in the order theta_i, phi_i, ndf, sigma, vndf, luminance, spectra +
+/// wavelengths (or rgb), description, jacobian; unchecked (write_rgl_bsdf checks first).
+TensorFile rgl_tensor_fields(const RglBsdf& bsdf);
+
+/// Writes `bsdf` atomically as a tensor file with the fields of rgl_tensor_fields. Throws
 /// NumericalError naming the path and the fault (rgl_bsdf_fault, or a negative BRDF sample: our
 /// files hold none) before any file is created; IoError if it cannot be written.
 void write_rgl_bsdf(const std::filesystem::path& path, const RglBsdf& bsdf);

@@ -216,27 +216,27 @@ RglBsdf make_rgl_bsdf(const RglBrdfCallback& brdf, const RglOptions& options) {
 
     // 1. The NDF: power iteration on D = f(w, w) cos(theta) sigma_D(w) (see the header).
     const int n_ndf = options.ndf_resolution;
-    std::vector<double> ndf_theta(n_ndf), retro(n_ndf), cos_theta(n_ndf);
-    for (int k = 0; k < n_ndf; ++k) {
+    std::vector<double> ndf_theta(n_ndf), retro_cos(n_ndf);
+    for (int k = 0; k + 1 < n_ndf; ++k) {
         ndf_theta[k] = node_theta(k, n_ndf);
-        cos_theta[k] = k + 1 < n_ndf ? std::cos(ndf_theta[k]) : 0.0;
-        // At the horizon node cos(theta) = 0 makes D vanish whatever f is: no call there.
-        if (k + 1 < n_ndf) {
-            const Vec3 w{std::sin(ndf_theta[k]), 0.0, std::cos(ndf_theta[k])};
-            retro[k] = luminance(f(w, w));
-        } else {
-            retro[k] = retro[k - 1];
-        }
+        const Vec3 w{std::sin(ndf_theta[k]), 0.0, std::cos(ndf_theta[k])};
+        retro_cos[k] = luminance(f(w, w)) * w.z;
     }
-    const double retro_max = *std::max_element(retro.begin(), retro.end());
-    for (double& r : retro) r = retro_max > 0.0 ? std::max(r, 1e-6 * retro_max) : 1.0;
+    // f(w, w) cos(theta) has a finite limit at the horizon (a microfacet f(w, w) grows like
+    // 1 / cos(theta)), where the model cannot be asked: extrapolate linearly in u.
+    ndf_theta[n_ndf - 1] = pi_d / 2;
+    retro_cos[n_ndf - 1] =
+        n_ndf > 2 ? std::max(2.0 * retro_cos[n_ndf - 2] - retro_cos[n_ndf - 3], 0.0)
+                  : retro_cos[0];
+    const double retro_max = *std::max_element(retro_cos.begin(), retro_cos.end());
+    for (double& r : retro_cos) r = retro_max > 0.0 ? std::max(r, 1e-6 * retro_max) : 1.0;
     const auto ndf_kernel = projected_area_kernel(ndf_theta, n_ndf);
     std::vector<double> D(n_ndf, 1.0 / pi_d);
     int iterations = 0;
     for (double change = 1.0; change > 1e-10 && iterations < 1000; ++iterations) {
         const std::vector<double> sigma = project(ndf_kernel, D);
         std::vector<double> next(n_ndf);
-        for (int k = 0; k < n_ndf; ++k) next[k] = retro[k] * cos_theta[k] * sigma[k];
+        for (int k = 0; k < n_ndf; ++k) next[k] = retro_cos[k] * sigma[k];
         const double norm = project(ndf_kernel, next)[0]; // sigma(normal) = int D cos = 1
         change = 0.0;
         double peak = 0.0;
@@ -313,12 +313,14 @@ RglBsdf make_rgl_bsdf(const RglBrdfCallback& brdf, const RglOptions& options) {
         const float params[2] = {out.phi_i[0], out.theta_i[t]};
         // Nodes whose wo is at or below the horizon keep 0: the limit of f cos(theta_o) there.
         std::vector<std::vector<double>> grids(channels, std::vector<double>(nn, 0.0));
+        std::vector<double> lum(nn, 0.0);
         for (int y = 0; y < n; ++y)
             for (int x = 0; x < n; ++x) {
                 const rgl::Point2f s{static_cast<float>(x) / static_cast<float>(n - 1),
                                      static_cast<float>(y) / static_cast<float>(n - 1)};
-                const rgl::Point2f u_m = warp.sample(s, params).first;
-                const double theta_m = double{u_m.x} * u_m.x * (pi_d / 2);
+                const auto [u_m, warp_density] = warp.sample(s, params);
+                const double u_theta = u_m.x;
+                const double theta_m = u_theta * u_theta * (pi_d / 2);
                 const double phi_m = (2.0 * u_m.y - 1.0) * pi_d; // relative to phi_i = 0
                 const Vec3 m{std::sin(theta_m) * std::cos(phi_m),
                              std::sin(theta_m) * std::sin(phi_m), std::cos(theta_m)};
@@ -336,16 +338,19 @@ RglBsdf make_rgl_bsdf(const RglBrdfCallback& brdf, const RglOptions& options) {
                 const std::size_t i = static_cast<std::size_t>(y) * n + x;
                 for (std::size_t c = 0; c < channels; ++c)
                     grids[c][i] = value[c] * wo.z / factor;
+                // The renderers sample s by the luminance, then wo by the warp: for a pdf of wo
+                // proportional to f cos(theta_o), the luminance at s is that over the warp's pdf
+                // of wo, density / (2 pi^2 u sin(theta_m) 4 wi.m). For the visible-normal warp
+                // that pdf is close to D / (4 sigma) and this is the luminance of the samples.
+                const double grid_jacobian = 2.0 * pi_d * pi_d * u_theta * std::sin(theta_m);
+                const double warp_pdf = warp_density / (grid_jacobian * 4.0 * cos_im);
+                lum[i] = warp_pdf > 0.0 && std::isfinite(warp_pdf)
+                             ? luminance(value) * wo.z / warp_pdf
+                             : 0.0;
             }
-        // 5. Luminance for the sampling warp; a small floor keeps every grid normalisable.
-        std::vector<double> lum(nn);
+        // 5. A small floor keeps every luminance grid normalisable.
         double lum_max = 0.0;
-        for (std::size_t i = 0; i < nn; ++i) {
-            double y = 0.0;
-            for (std::size_t c = 0; c < channels; ++c) y += weights[c] * std::max(grids[c][i], 0.0);
-            lum[i] = y;
-            lum_max = std::max(lum_max, y);
-        }
+        for (double l : lum) lum_max = std::max(lum_max, l);
         for (std::size_t i = 0; i < nn; ++i) {
             const std::size_t base = static_cast<std::size_t>(t) * nn;
             out.luminance.values[base + i] =

@@ -26,7 +26,10 @@
 //     at every node up to float rounding; between nodes the renderer interpolates. Nodes whose wo
 //     falls at or below the horizon hold 0, the limit of f cos(theta_o) there (and no negative
 //     values: pbrt-v4 clamps them, and our outputs hold none).
-//  5. Luminance of the samples (for sampling only).
+//  5. The luminance warp (sampling only): the renderers draw s from it, then wo through the warp,
+//     so it holds Y(f cos(theta_o)) over the warp's own pdf of wo at each node, which makes their
+//     pdf proportional to the BRDF's luminance (for the visible-normal warp that pdf is close to
+//     D / (4 sigma), and this is the luminance of the samples, as in the paper).
 //
 // Our files are isotropic: one phi_i (0), ndf and sigma with two identical azimuth rows (the
 // renderers' interpolants need two), theta_i uniform in angle.

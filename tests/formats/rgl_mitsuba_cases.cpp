@@ -96,13 +96,19 @@ int main(int argc, char** argv) {
                     nlohmann::json c{{"name", name},
                                      {"bsdf", file},
                                      {"variant", spectral ? "scalar_spectral" : "scalar_rgb"},
-                                     {"enforce", r.enforce},
+                                     {"enforce", test::rgl_enforced(model, r)},
                                      {"theta_i_count", r.theta_i},
                                      {"sample_resolution", r.samples},
                                      {"pairs", pairs_json},
                                      {"reference_brdf", reference},
                                      {"ours_eval_cosine", ours}};
                     if (spectral) c["wavelengths_nm"] = options.wavelengths_nm;
+                    // The model's directional albedo, for the check of Mitsuba's sampling.
+                    nlohmann::json albedo = nlohmann::json::array();
+                    for (double theta_i_deg : {30.0, 70.0})
+                        albedo.push_back({{"theta_i_deg", theta_i_deg},
+                                          {"albedo", test::model_albedo(brdf, theta_i_deg)}});
+                    c["albedo"] = albedo;
                     std::ofstream(out_dir / (name + ".json")) << c.dump() << "\n";
 
                     const auto stats = test::rgl_accuracy(evaluator, brdf, pairs);

@@ -1,5 +1,7 @@
 #include "rgl_test_brdfs.h"
 
+#include <brdf/core/quadrature.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -91,6 +93,11 @@ std::vector<double> visible_wavelengths() {
     return nm;
 }
 
+bool rgl_enforced(RglTestModel model, const RglResolution& resolution) {
+    const int needed = model == RglTestModel::Retro ? 32 : 16;
+    return resolution.theta_i >= needed;
+}
+
 formats::RglOptions rgl_case_options(const RglResolution& resolution, bool spectral) {
     formats::RglOptions options;
     if (spectral) options.wavelengths_nm = visible_wavelengths();
@@ -118,6 +125,24 @@ std::vector<DirectionSample> random_direction_pairs(std::size_t count, std::uint
         p.wo = direction();
     }
     return pairs;
+}
+
+std::vector<double> model_albedo(const formats::RglBrdfCallback& brdf, double theta_i_deg) {
+    const double ti = theta_i_deg * pi / 180.0;
+    const Vec3 wi{std::sin(ti), 0.0, std::cos(ti)};
+    const auto mu = gauss_legendre(128, 0.0, 1.0);
+    constexpr int phis = 256;
+    std::vector<double> albedo, values;
+    for (std::size_t q = 0; q < mu.size(); ++q)
+        for (int k = 0; k < phis; ++k) {
+            const double z = mu.x[q], s = std::sqrt(1.0 - z * z);
+            const double phi = 2.0 * pi * (k + 0.5) / phis;
+            brdf(wi, {s * std::cos(phi), s * std::sin(phi), z}, values);
+            albedo.resize(values.size(), 0.0);
+            for (std::size_t c = 0; c < values.size(); ++c)
+                albedo[c] += values[c] * z * mu.w[q] * 2.0 * pi / phis;
+        }
+    return albedo;
 }
 
 RelativeStats relative_stats(std::vector<double> d) {

@@ -12,7 +12,12 @@ cosine), so:
   a 95th percentile <= 5 % (--median, --p95);
 - agreement: eval against our evaluator's value ("ours_eval_cosine", formats/rgl/rgl_eval.h), relative
   difference with a floor of 1e-6 of the case's largest value; every case must agree within 1e-4
-  (--agreement): float rounding, which pins our reading of the format.
+  (--agreement): float rounding, which pins our reading of the format;
+- sampling (enforced cases with "albedo"): BSDF.sample at a fixed incidence, 4000 stratified
+  samples; the mean weight estimates the directional albedo and must match the model's within
+  4 standard errors + 2 % (the file's own interpolation error), every weight must be finite and
+  >= 0, and BSDF.pdf at the sampled direction must equal the sample's pdf (1e-3): Mitsuba's
+  luminance and visible-normal warps of our files are consistent and unbiased.
 
 Case keys: name, bsdf (path relative to the JSON), variant, enforce, pairs ([wi x y z, wo x y z],
 unit vectors, z up, pointing away from the surface), reference_brdf and ours_eval_cosine (one list of
@@ -35,6 +40,7 @@ import argparse
 import glob
 import importlib
 import json
+import math
 import os
 import subprocess
 import sys
@@ -86,6 +92,65 @@ def quantile(sorted_values, q):
         return 0.0
     index = min(len(sorted_values) - 1, int(q * (len(sorted_values) - 1) + 0.5))
     return sorted_values[index]
+
+
+def sampling_faults(mi, evaluator, case, samples=4000):
+    """Mean sample weight against the model's albedo, at each incidence of case["albedo"]."""
+    faults, report = [], []
+    bsdf, ctx = evaluator.bsdf, evaluator.ctx
+    side = int(round(samples ** 0.5))
+    for entry in case["albedo"]:
+        theta = math.radians(entry["theta_i_deg"])
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(math.sin(theta), 0.0, math.cos(theta))
+        channels = len(entry["albedo"])
+        sums = [0.0] * channels
+        squares = [0.0] * channels
+        worst_pdf = 0.0
+        bad_weights = 0
+        for a in range(side):
+            for b in range(side):
+                u = mi.Point2f((a + 0.5) / side, (b + 0.37) / side)
+                if evaluator.spectral:
+                    group_weights = []
+                    for start in range(0, channels, 4):
+                        group = evaluator.wavelengths[start:start + 4]
+                        si.wavelengths = mi.Spectrum(group + [group[-1]] * (4 - len(group)))
+                        bs, w = bsdf.sample(ctx, si, 0.5, u)
+                        group_weights.extend(float(w[k]) for k in range(len(group)))
+                    weights = group_weights
+                else:
+                    bs, w = bsdf.sample(ctx, si, 0.5, u)
+                    weights = [float(w[0]), float(w[1]), float(w[2])]
+                # sample() keeps the pdf of directions it then rejects below the horizon.
+                if bs.pdf > 0 and bs.wo.z > 0:
+                    pdf = float(bsdf.pdf(ctx, si, bs.wo))
+                    worst_pdf = max(worst_pdf, abs(pdf - float(bs.pdf)) / float(bs.pdf))
+                for c, w in enumerate(weights):
+                    if not (w >= 0.0 and math.isfinite(w)):
+                        bad_weights += 1
+                        continue
+                    sums[c] += w
+                    squares[c] += w * w
+        n = side * side
+        worst = 0.0
+        for c in range(channels):
+            mean = sums[c] / n
+            stderr = math.sqrt(max(squares[c] / n - mean * mean, 0.0) / n)
+            ref = entry["albedo"][c]
+            excess = abs(mean - ref) / (4.0 * stderr + 0.02 * ref)
+            worst = max(worst, excess)
+            if excess > 1.0:
+                faults.append(f"theta_i {entry['theta_i_deg']}: mean weight {mean:.4g} in channel "
+                              f"{c}, model albedo {ref:.4g} (4 standard errors {4 * stderr:.2g})")
+                break
+        if bad_weights:
+            faults.append(f"theta_i {entry['theta_i_deg']}: {bad_weights} weights NaN, inf or < 0")
+        if worst_pdf > 1e-3:
+            faults.append(f"theta_i {entry['theta_i_deg']}: pdf() differs from the sample's pdf "
+                          f"by {worst_pdf:.2g}")
+        report.append(f"{entry['theta_i_deg']:.0f} deg: {worst:.2f}")
+    return faults, ", ".join(report)
 
 
 class MitsubaEvaluator:
@@ -154,6 +219,9 @@ def check_case(mi, case_path, args):
         faults.append(f"95th percentile {result['p95']:.3g} > {args.p95}")
     if agreement and result["agreement_max"] > args.agreement:
         faults.append(f"our evaluator differs by {result['agreement_max']:.3g} > {args.agreement}")
+    if result["enforce"] and "albedo" in case:
+        sample_faults, result["sampling"] = sampling_faults(mi, evaluator, case)
+        faults += sample_faults
     result["faults"] = faults
     return result
 
@@ -225,6 +293,8 @@ def main():
         nodes = f"{r['theta_i_count']}x{r['sample_resolution']}"
         agreement = "-" if r["agreement_max"] is None else f"{r['agreement_max']:.2e}"
         mark = " (enforced)" if r["enforce"] else ""
+        if "sampling" in r:
+            mark += f" sampling |mean - albedo| / tolerance: {r['sampling']}"
         print(f"{r['name']:28s} {nodes:>7s} {r['median']:9.2e} {r['p95']:9.2e} {r['max']:9.2e} "
               f"{agreement:>9s}{mark}")
         if r["faults"]:
