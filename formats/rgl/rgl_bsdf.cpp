@@ -6,6 +6,7 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -78,9 +79,8 @@ std::string shape_fault(const char* name, const RglArray& a, std::size_t rank,
     return {};
 }
 
-// Finite everywhere; `min_kind`: 0 any, 1 >= 0, 2 > 0. `grid` > 0: every consecutive block of that
-// many values must have a positive sum (a normalised warp divides by it).
-std::string value_fault(const char* name, const RglArray& a, int min_kind, std::size_t grid = 0) {
+// Finite everywhere; `min_kind`: 0 any, 1 >= 0, 2 > 0.
+std::string value_fault(const char* name, const RglArray& a, int min_kind) {
     for (std::size_t k = 0; k < a.values.size(); ++k) {
         const float v = a.values[k];
         if (!std::isfinite(v))
@@ -90,15 +90,37 @@ std::string value_fault(const char* name, const RglArray& a, int min_kind, std::
             return cat("field '", name, "': value ", v, " at index ", index_text(a.shape, k),
                        min_kind == 1 ? " is negative" : " is not > 0");
     }
-    if (grid > 0)
-        for (std::size_t start = 0; start + grid <= a.values.size(); start += grid) {
-            double sum = 0.0;
-            for (std::size_t k = start; k < start + grid; ++k) sum += a.values[k];
-            if (!(sum > 0.0))
-                return cat("field '", name, "': the grid at index ", index_text(a.shape, start),
-                           " is zero everywhere (it cannot be normalised)");
-        }
     return {};
+}
+
+// A warp ([P, T, rows, columns], values >= 0): the renderers normalise each grid in single precision
+// and divide by the integral of each row when they invert it, so every row needs a positive value
+// and every grid an integral that 1 / integral does not overflow.
+std::string warp_fault(const char* name, const RglArray& a) {
+    const std::size_t rows = a.shape[2], columns = a.shape[3], grid = rows * columns;
+    for (std::size_t start = 0; start + grid <= a.values.size(); start += grid) {
+        double integral = 0.0;
+        for (std::size_t r = 0; r < rows; ++r) {
+            const float* row = a.values.data() + start + r * columns;
+            if (std::all_of(row, row + columns, [](float v) { return v == 0.0f; }))
+                return cat("field '", name, "': row ", r, " of the grid at index ",
+                           index_text(a.shape, start),
+                           " is zero (the renderers divide by each row's integral)");
+            for (std::size_t c = 0; c + 1 < columns; ++c)
+                integral += (double{row[c]} + row[c + 1]) * (r == 0 || r + 1 == rows ? 0.5 : 1.0);
+        }
+        integral *= 0.5 / ((columns - 1) * (rows - 1));
+        if (!(integral >= 1e-30))
+            return cat("field '", name, "': the grid at index ", index_text(a.shape, start),
+                       " integrates to ", integral, ", too little to normalise in single precision");
+    }
+    return {};
+}
+
+double largest(const std::vector<float>& v) {
+    double m = 0.0;
+    for (float x : v) m = std::max(m, std::abs(double{x}));
+    return m;
 }
 
 RglArray array_of(const TensorField& f) {
@@ -142,10 +164,20 @@ std::string rgl_bsdf_fault(const RglBsdf& b) {
         return fault;
     if (!(fault = value_fault("ndf", b.ndf, 1)).empty()) return fault;
     if (!(fault = value_fault("sigma", b.sigma, 2)).empty()) return fault;
-    if (!(fault = value_fault("vndf", b.vndf, 1, b.vndf.shape[2] * b.vndf.shape[3])).empty())
-        return fault;
-    if (!(fault = value_fault("luminance", b.luminance, 1, n * n)).empty()) return fault;
+    if (!(fault = value_fault("vndf", b.vndf, 1)).empty()) return fault;
+    if (!(fault = value_fault("luminance", b.luminance, 1)).empty()) return fault;
     if (!(fault = value_fault(values_name, b.values, 0)).empty()) return fault;
+    if (!(fault = warp_fault("vndf", b.vndf)).empty()) return fault;
+    if (!(fault = warp_fault("luminance", b.luminance)).empty()) return fault;
+    // A renderer's value is a sample times ndf / (4 sigma), all interpolated between the nodes:
+    // bounded by the largest of each and the smallest sigma, which must stay a float.
+    if (b.jacobian) {
+        const double bound = largest(b.values.values) * largest(b.ndf.values) /
+                             (4.0 * *std::min_element(b.sigma.values.begin(), b.sigma.values.end()));
+        if (!(bound <= std::numeric_limits<float>::max()))
+            return cat("field '", values_name, "': the largest sample times the largest ndf over 4 "
+                       "times the smallest sigma is ", bound, ", beyond single precision");
+    }
     return {};
 }
 

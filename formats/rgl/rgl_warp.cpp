@@ -16,8 +16,9 @@ float lerp(float a, float b, float t) {
     return b * t + (a - a * t);
 }
 
+// Clamps to [0, 1]; NaN becomes 0, so that no later float-to-index conversion sees it.
 float clamp01(float v) {
-    return std::min(std::max(v, 0.0f), 1.0f);
+    return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;
 }
 
 // First index k in [first, last] with !below(k), or `last` when below() holds throughout: Dr.Jit's

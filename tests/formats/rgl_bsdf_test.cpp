@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -191,14 +192,49 @@ TEST_F(RglBsdfFault, ValuesThatWouldMakeNaN) {
                  "field 'sigma': value 0 at index [0, 0] is not > 0");
     expect_fault([](TensorFile& t) { set_float(t, "vndf", 3, -0.5f); },
                  "field 'vndf': value -0.5 at index [0, 0, 1, 0] is negative");
+}
+
+// The renderers normalise each warp grid and divide by the integral of each of its rows.
+TEST_F(RglBsdfFault, WarpsThatCannotBeNormalisedOrInverted) {
     expect_fault(
         [](TensorFile& t) {
             std::vector<float> v = field(t, "luminance").to_float32();
             std::fill(v.begin() + 16, v.end(), 0.0f);
             field(t, "luminance") = TensorField::float32("luminance", {1, 2, 4, 4}, v);
         },
-        "field 'luminance': the grid at index [0, 1, 0, 0] is zero everywhere (it cannot be "
-        "normalised)");
+        "field 'luminance': row 0 of the grid at index [0, 1, 0, 0] is zero (the renderers divide "
+        "by each row's integral)");
+    expect_fault(
+        [](TensorFile& t) {
+            std::vector<float> v = field(t, "vndf").to_float32();
+            std::fill(v.begin() + 6, v.begin() + 9, 0.0f); // the last row of the first grid
+            field(t, "vndf") = TensorField::float32("vndf", {1, 2, 3, 3}, v);
+        },
+        "field 'vndf': row 2 of the grid at index [0, 0, 0, 0] is zero (the renderers divide by "
+        "each row's integral)");
+    expect_fault(
+        [](TensorFile& t) {
+            field(t, "vndf") =
+                TensorField::float32("vndf", {1, 2, 3, 3}, std::vector<float>(18, 1e-38f));
+        },
+        "field 'vndf': the grid at index [0, 0, 0, 0] integrates to 9.99999935e-39, too little to "
+        "normalise in single precision");
+}
+
+// sample * ndf / (4 sigma) must not overflow (inf, then NaN where a factor is 0).
+TEST_F(RglBsdfFault, ValuesWhoseProductOverflows) {
+    // 3e38 * 0.35 (the largest ndf) / (4 * 0.01) = 2.6e39.
+    const std::vector<float> ndf = test::small_rgl_bsdf().ndf.values;
+    const double bound =
+        double{3e38f} * *std::max_element(ndf.begin(), ndf.end()) / (4.0 * double{0.01f});
+    expect_fault(
+        [](TensorFile& t) {
+            set_float(t, "rgb", 3, 3e38f);
+            set_float(t, "sigma", 4, 0.01f);
+        },
+        cat("field 'rgb': the largest sample times the largest ndf over 4 times the smallest "
+            "sigma is ",
+            bound, ", beyond single precision"));
 }
 
 // Negative BRDF samples occur in measured files (noise); pbrt-v4 clamps them, Mitsuba reads them.

@@ -31,3 +31,8 @@ if(Python3_Interpreter_FOUND)
 else()
   message(STATUS "python3 not found: the Mitsuba check of RGL files (rgl_mitsuba_measured) is not registered")
 endif()
+
+# Regenerates the fuzz_rgl seed corpus: cmake --build BUILD --target rgl_make_fuzz_seeds, then
+# BUILD/bin/rgl_make_fuzz_seeds tests/data/fuzz/rgl.
+add_executable(rgl_make_fuzz_seeds EXCLUDE_FROM_ALL ${CMAKE_CURRENT_LIST_DIR}/rgl_make_fuzz_seeds.cpp)
+target_link_libraries(rgl_make_fuzz_seeds PRIVATE brdf_rgl_test_brdfs brdf_options)
