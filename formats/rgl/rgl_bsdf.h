@@ -74,9 +74,10 @@ struct RglBsdf {
 /// empty string. Checks the shapes Mitsuba's `measured` checks (and pbrt-v4's: the same), and
 /// beyond them what would make those readers fail or produce NaN: grids of at least 2 x 2 (their
 /// interpolants need it), non-empty increasing finite theta_i, phi_i and wavelengths, finite
-/// values everywhere, ndf, vndf and luminance >= 0 with every vndf and luminance grid non-zero
-/// somewhere (they are normalised), sigma > 0 (it divides). BRDF samples may be negative (measured
-/// noise; pbrt-v4 clamps them, Mitsuba does not).
+/// values everywhere, ndf, vndf and luminance >= 0, sigma > 0 (it divides), no vndf or luminance
+/// row of zeros (inverting a warp divides by each row's integral) and no such grid too small to
+/// normalise in float, and largest sample x largest ndf / (4 x smallest sigma) within float range.
+/// BRDF samples may be negative (measured noise; pbrt-v4 clamps them, Mitsuba does not).
 std::string rgl_bsdf_fault(const RglBsdf& bsdf);
 
 /// Reads an RGL BSDF file: read_tensor_file (every size and offset checked first), then the fields
