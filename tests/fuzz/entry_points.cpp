@@ -5,7 +5,10 @@
 #include <brdf/material/spec.h>
 #include <formats/exr/exr.h>
 #include <formats/merl/merl.h>
+#include <formats/rgl/rgl_bsdf.h>
+#include <formats/rgl/rgl_eval.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -52,6 +55,18 @@ void merl(const std::uint8_t* data, std::size_t size) {
 void exr(const std::uint8_t* data, std::size_t size) {
     static ScratchFile file(".exr");
     formats::read_exr(file.write(data, size));
+}
+
+void rgl(const std::uint8_t* data, std::size_t size) {
+    static ScratchFile file(".rgl.bsdf");
+    const formats::RglEvaluator evaluator(formats::read_rgl_bsdf(file.write(data, size)));
+    const formats::Vec3 directions[] = {{0.0, 0.0, 1.0}, {0.6, 0.0, 0.8}, {-0.3, 0.4, 0.866},
+                                        {0.999, 0.0, 0.0447}, {0.0, -0.6, 0.8}};
+    for (const auto& wi : directions)
+        for (const auto& wo : directions) {
+            for (double v : evaluator.eval_cosine(wi, wo))
+                if (std::isnan(v)) throw std::runtime_error("fuzz: the evaluator returned NaN");
+        }
 }
 
 void spec(const std::uint8_t* data, std::size_t size) {
