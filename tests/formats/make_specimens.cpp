@@ -18,5 +18,7 @@ int main(int argc, char** argv) {
     for (const brdf::test::MerlSpecimen& s : brdf::test::merl_specimens())
         brdf::test::write_file(folder / s.name, s.bytes);
     brdf::test::write_exr_specimens(folder);
+    for (const brdf::test::MerlSpecimen& s : brdf::test::fourier_specimens())
+        brdf::test::write_file(folder / s.name, s.bytes);
     return 0;
 }

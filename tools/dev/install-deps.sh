@@ -11,6 +11,7 @@ packages=(
   libopenimageio-dev openimageio-tools libopenexr-dev openexr
   nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
+  python3 python3-numpy
 )
 
 # Optional, not installed by default: clang with libFuzzer for tools/dev/fuzz.sh (tests/fuzz,
