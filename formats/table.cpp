@@ -6,6 +6,7 @@
 #include <brdf/core/log.h>
 #include <brdf/core/quadrature.h>
 
+#include <cctype>
 #include <cmath>
 
 namespace brdf::formats {
@@ -13,6 +14,15 @@ namespace brdf::formats {
 const char* channel_name(int channel) {
     static const char* const names[3] = {"red", "green", "blue"};
     return channel >= 0 && channel < 3 ? names[channel] : "?";
+}
+
+std::string canonical_colorspace(std::string_view name) {
+    if (name == legacy_rec709_colorspace) return default_colorspace;
+    std::string lower(name);
+    for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    for (const char* known : {"rec709", "acescg", "rec2020"})
+        if (lower == known) return known;
+    return {};
 }
 
 BrdfTable::BrdfTable() {

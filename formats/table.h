@@ -26,7 +26,16 @@ namespace brdf::formats {
 /// Red, green, blue; BRDF in 1/sr unless said otherwise.
 using Rgb = std::array<double, 3>;
 
-inline constexpr const char* default_colorspace = "linear Rec.709 (sRGB primaries), D65";
+/// BrdfTable::colorspace is one of "rec709" (linear Rec.709 / sRGB primaries, D65: the default),
+/// "acescg" (ACES AP1 primaries, ACES white point) or "rec2020" (ITU-R BT.2020 primaries, D65), the
+/// spec's "colorspace" values.
+inline constexpr const char* default_colorspace = "rec709";
+/// What tables said before the identifiers above (OpenEXR files written then hold it): rec709.
+inline constexpr const char* legacy_rec709_colorspace = "linear Rec.709 (sRGB primaries), D65";
+
+/// "rec709", "acescg" or "rec2020" for those names in any case and for the legacy string; empty
+/// for anything else.
+std::string canonical_colorspace(std::string_view name);
 
 /// "red", "green", "blue" for channel 0, 1, 2.
 const char* channel_name(int channel);
