@@ -94,6 +94,13 @@ Rgb lookup(const BrdfTable& table, double theta_i, double theta_o, double phi) {
 }
 
 Rgb directional_albedo(const BrdfTable& table, double theta_i, AlbedoQuadrature quadrature) {
+    return directional_albedo(
+        [&](double theta_o, double phi) { return lookup(table, theta_i, theta_o, phi); }, theta_i,
+        quadrature);
+}
+
+Rgb directional_albedo(const std::function<Rgb(double theta_o, double phi)>& brdf, double theta_i,
+                       AlbedoQuadrature quadrature) {
     if (quadrature.mu_points < 1 || quadrature.phi_points < 1 || quadrature.mu_points > 100000 ||
         quadrature.phi_points > 100000)
         throw InputError(cat("directional_albedo: quadrature of ", quadrature.mu_points, " x ",
@@ -107,7 +114,7 @@ Rgb directional_albedo(const BrdfTable& table, double theta_i, AlbedoQuadrature 
         const double theta_o = std::acos(mu.x[m]);
         Rgb ring{0.0, 0.0, 0.0};
         for (int n = 0; n < quadrature.phi_points; ++n) {
-            const Rgb f = lookup(table, theta_i, theta_o, (n + 0.5) * dphi);
+            const Rgb f = brdf(theta_o, (n + 0.5) * dphi);
             for (int c = 0; c < 3; ++c) ring[c] += f[c];
         }
         for (int c = 0; c < 3; ++c) rho[c] += mu.w[m] * mu.x[m] * ring[c] * dphi;

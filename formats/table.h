@@ -124,5 +124,9 @@ struct AlbedoQuadrature {
 /// d omega_o of the table (dimensionless, per channel), by table lookup (sample) at the nodes of
 /// `quadrature`; no-data cells count as 0. theta_i in radians, [0, pi/2).
 Rgb directional_albedo(const BrdfTable& table, double theta_i, AlbedoQuadrature quadrature = {});
+/// The same rule for any BRDF at this theta_i: brdf(theta_o, phi) in 1/sr (a Fourier BSDF's
+/// evaluate, say).
+Rgb directional_albedo(const std::function<Rgb(double theta_o, double phi)>& brdf, double theta_i,
+                       AlbedoQuadrature quadrature = {});
 
 } // namespace brdf::formats

@@ -154,6 +154,11 @@ std::optional<Fault> find_fault(const FourierBsdf& b) {
     }
     if (!(b.mu.front() < b.mu.back()))
         return Fault{false, cat("all nodes equal (", float_text(b.mu.front()), ")")};
+    // At mu = mu.back() the spline's interval is the last one; of zero width it divides 0 by 0 (and
+    // pbrt-v3 then reads outside its tables).
+    if (b.mu[n - 2] == b.mu[n - 1])
+        return Fault{false, cat("the last two nodes are equal (", float_text(b.mu[n - 1]),
+                                "): the last spline interval has zero width")};
     if (b.channels != 1 && b.channels != 3)
         return Fault{false, cat(b.channels, " channels (pbrt-v3 reads 1 or 3)")};
     if (!std::isfinite(b.eta)) return Fault{true, cat("non-finite eta ", detail::value_text(b.eta))};

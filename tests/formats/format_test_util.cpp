@@ -2,6 +2,7 @@
 
 #include "test_support.h"
 
+#include <formats/exr/spectral_exr.h>
 #include <formats/fourier/fourier.h>
 #include <formats/merl/merl.h>
 
@@ -223,6 +224,29 @@ void store_u32_at(std::string& s, std::size_t offset, std::uint32_t v) {
     for (int b = 0; b < 4; ++b) s.at(offset + b) = static_cast<char>((v >> (8 * b)) & 0xff);
 }
 } // namespace
+
+void write_fuzz_seeds(const std::filesystem::path& folder) {
+    std::filesystem::create_directories(folder / "fourier");
+    std::filesystem::create_directories(folder / "spectral_exr");
+    write_file(folder / "fourier" / "specimen.bsdf", fourier_specimen_bytes());
+    // One channel, a few more nodes and orders, foreign (layerlab-like) metadata.
+    const std::vector<double> mu{0.2, 0.6, 0.9};
+    const auto series = [](double mu_i, double mu_o, std::span<double> out) {
+        const double s = (1 - mu_i * mu_i) * (1 - mu_o * mu_o);
+        for (int c = 0; c < 3; ++c)
+            for (int m = 0; m < 4; ++m) out[c * 4 + m] = (m == 0 ? 0.1 : 0.02 * s / m);
+    };
+    formats::FourierBuildOptions options;
+    options.channels = 1;
+    formats::FourierBsdf grey = formats::make_fourier_bsdf(mu, 4, series, options);
+    grey.metadata = R"({"layers": [{"type": 1, "roughness": 0.2}]})";
+
+    formats::write_fourier_bsdf(folder / "fourier" / "grey_foreign_metadata.bsdf", grey);
+    // A spectral table of one wavelength, all zero (compresses to a few kB).
+    formats::SpectralTable zero({550.0});
+    zero.generator = "fuzz seed";
+    formats::write_spectral_exr(folder / "spectral_exr" / "zero_550nm.exr", zero);
+}
 
 std::vector<MerlSpecimen> fourier_specimens() {
     const std::string valid = fourier_specimen_bytes();

@@ -84,6 +84,10 @@ std::string fourier_specimen_bytes();
 /// The checked-in malformed Fourier BSDF files (name, bytes); make_specimens writes them.
 std::vector<MerlSpecimen> fourier_specimens();
 
+/// The fuzz seeds of fuzz_fourier and fuzz_spectral_exr: FOLDER/fourier/*.bsdf,
+/// FOLDER/spectral_exr/*.exr.
+void write_fuzz_seeds(const std::filesystem::path& folder);
+
 /// Records the largest single operator new request made between construction and destruction
 /// (this test binary replaces the global operator new).
 class AllocationProbe {

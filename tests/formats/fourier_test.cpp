@@ -462,6 +462,9 @@ TEST_F(FourierBad, EachFaultIsOneLineNamingIt) {
     put_u32_at(v, 64 + 4, std::bit_cast<std::uint32_t>(0.9f));
     EXPECT_EQ(message(v), "nodes not in increasing order (mu[1] = 0.9, mu[2] = 0)");
     v = valid;
+    put_u32_at(v, 64 + 4 * 4, std::bit_cast<std::uint32_t>(1.0f));
+    EXPECT_EQ(message(v), "the last two nodes are equal (1): the last spline interval has zero width");
+    v = valid;
     put_u32_at(v, 64 + 4 * nodes + 4 * 7, 0x7f800000u);
     EXPECT_EQ(message(v), "non-finite cdf value inf of pair o 1, i 1 (mu_o -0.5, mu_i -0.5)");
     v = valid;

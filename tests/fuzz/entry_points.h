@@ -15,6 +15,12 @@ namespace brdf::fuzz {
 void merl(const std::uint8_t* data, std::size_t size);
 /// The bytes as an OpenEXR file (temporary file) -> read_exr.
 void exr(const std::uint8_t* data, std::size_t size);
+/// The bytes as a pbrt-v3 Fourier BSDF file (temporary file) -> read_fourier_bsdf, and on success
+/// evaluate at a few directions (the reader's checks must make every file it accepts safe to
+/// evaluate).
+void fourier(const std::uint8_t* data, std::size_t size);
+/// The bytes as a spectral OpenEXR table (temporary file) -> read_spectral_exr.
+void spectral_exr(const std::uint8_t* data, std::size_t size);
 /// The bytes as spec JSON text -> parse_specs_text.
 void spec(const std::uint8_t* data, std::size_t size);
 
