@@ -234,7 +234,7 @@ def main(argv):
         model = rows[:, 3:]
         floor = 1e-3 * max(float(np.max(model)), 1e-30)
         rel = np.abs(mine - model) / np.maximum(model, floor)
-        print(f"{len(rows)} directions below {args.max_theta_deg} degrees: median relative "
+        print(f"{len(rows)} directions below {args.max_theta_deg:g} degrees: median relative "
               f"difference {np.median(rel):.3g}, worst {rel.max():.3g}")
         if not (np.median(rel) <= args.median and rel.max() <= args.worst):
             print(f"FAIL: limits median {args.median}, worst {args.worst}", file=sys.stderr)
