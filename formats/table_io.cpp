@@ -135,7 +135,12 @@ TableFormat detect_format(const std::filesystem::path& path) {
 }
 
 BrdfTable read_table(const std::filesystem::path& path, const SpectralToRgb& spectral_to_rgb) {
-    switch (detect_format(path)) {
+    return read_table(path, detect_format(path), spectral_to_rgb);
+}
+
+BrdfTable read_table(const std::filesystem::path& path, TableFormat format,
+                     const SpectralToRgb& spectral_to_rgb) {
+    switch (format) {
     case TableFormat::Merl:
         return read_merl(path);
     case TableFormat::Exr:

@@ -51,6 +51,9 @@ using SpectralToRgb = std::function<BrdfTable(const SpectralTable&)>;
 /// `spectral_to_rgb` (InputError naming the path without it). An RGL tensor file is an InputError
 /// (not read yet).
 BrdfTable read_table(const std::filesystem::path& path, const SpectralToRgb& spectral_to_rgb = {});
+/// The same for a format detect_format already gave (so that a misnamed file warns once).
+BrdfTable read_table(const std::filesystem::path& path, TableFormat format,
+                     const SpectralToRgb& spectral_to_rgb = {});
 /// write_merl or write_exr by extension (checked before anything is written); other formats are an
 /// InputError (they are made from the model, not from a table).
 void write_table(const std::filesystem::path& path, const BrdfTable& table);

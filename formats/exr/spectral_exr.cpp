@@ -40,9 +40,9 @@ const std::regex& channel_grammar() {
 // SI prefixes as powers of ten.
 int prefix_exponent(const std::string& prefix) {
     static const std::map<std::string, int> exponents{
-        {"Y", 24}, {"Z", 21}, {"E", 18}, {"P", 15},  {"T", 12},  {"G", 9},   {"M", 6}, {"k", 3},
-        {"h", 2},  {"da", 1}, {"d", -1}, {"c", -2},  {"m", -3},  {"u", -6},  {"n", -9}, {"p", -12},
-        {"", 0}};
+        {"Y", 24}, {"Z", 21}, {"E", 18}, {"P", 15},  {"T", 12}, {"G", 9},
+        {"M", 6},  {"k", 3},  {"h", 2},  {"da", 1},  {"d", -1}, {"c", -2},
+        {"m", -3}, {"u", -6}, {"n", -9}, {"p", -12}, {"", 0}};
     return exponents.at(prefix);
 }
 
@@ -88,7 +88,8 @@ std::vector<SpectralChannel> spectral_channels(const CoreHeader& header,
         }
         const double nm = wavelength_of(m);
         if (!(nm > 0))
-            throw FormatError(cat(display(path), ": channel ", name, " names no positive wavelength"));
+            throw FormatError(
+                cat(display(path), ": channel ", name, " names no positive wavelength"));
         found.push_back({nm, name});
     }
     if (!emissive.empty())
@@ -102,10 +103,9 @@ std::vector<SpectralChannel> spectral_channels(const CoreHeader& header,
     if (found.size() > max_spectral_wavelengths)
         throw FormatError(cat(display(path), ": ", found.size(), " wavelengths (at most ",
                               max_spectral_wavelengths, ")"));
-    std::sort(found.begin(), found.end(),
-              [](const SpectralChannel& a, const SpectralChannel& b) {
-                  return a.wavelength_nm < b.wavelength_nm;
-              });
+    std::sort(found.begin(), found.end(), [](const SpectralChannel& a, const SpectralChannel& b) {
+        return a.wavelength_nm < b.wavelength_nm;
+    });
     for (std::size_t k = 1; k < found.size(); ++k)
         if (found[k].wavelength_nm == found[k - 1].wavelength_nm)
             throw FormatError(cat(display(path), ": channels ", found[k - 1].name, " and ",
@@ -135,7 +135,8 @@ std::string format_wavelength(double nm, const char* format) {
 
 } // namespace
 
-SpectralTable::SpectralTable(std::vector<double> wavelengths) : wavelengths_nm(std::move(wavelengths)) {
+SpectralTable::SpectralTable(std::vector<double> wavelengths)
+    : wavelengths_nm(std::move(wavelengths)) {
     planes.assign(wavelengths_nm.size(), std::vector<float>(cells, 0.0f));
     for (std::size_t cell = 0; cell < cells; ++cell)
         if (cell_below_horizon(cell))
@@ -214,9 +215,10 @@ SpectralTable read_spectral_exr(const std::filesystem::path& path) {
             }
             const float v = plane[cell];
             if (!std::isfinite(v) || v < 0.0f)
-                throw FormatError(cat(display(path), std::isfinite(v) ? ": negative value " : ": non-finite value ",
-                                      detail::value_text(v), " in channel ", channels[j].name, " at ",
-                                      describe_cell(cell)));
+                throw FormatError(cat(
+                    display(path), std::isfinite(v) ? ": negative value " : ": non-finite value ",
+                    detail::value_text(v), " in channel ", channels[j].name, " at ",
+                    describe_cell(cell)));
         }
     }
     return table;
@@ -227,7 +229,8 @@ void write_spectral_exr(const std::filesystem::path& path, const SpectralTable& 
     const std::size_t n = table.wavelengths_nm.size();
     if (n == 0) throw InputError(cat(where, ": a spectral table needs at least one wavelength"));
     if (n > max_spectral_wavelengths)
-        throw InputError(cat(where, ": ", n, " wavelengths (at most ", max_spectral_wavelengths, ")"));
+        throw InputError(
+            cat(where, ": ", n, " wavelengths (at most ", max_spectral_wavelengths, ")"));
     if (table.planes.size() != n)
         throw InputError(cat(where, ": ", table.planes.size(), " planes for ", n, " wavelengths"));
     for (std::size_t j = 0; j < n; ++j) {
@@ -235,8 +238,8 @@ void write_spectral_exr(const std::filesystem::path& path, const SpectralTable& 
         if (!std::isfinite(nm) || !(nm > 0))
             throw InputError(cat(where, ": wavelength ", detail::value_text(nm), " nm is not > 0"));
         if (j > 0 && !(nm > table.wavelengths_nm[j - 1]))
-            throw InputError(cat(where, ": wavelengths not increasing (", table.wavelengths_nm[j - 1],
-                                 " nm, then ", nm, " nm)"));
+            throw InputError(cat(where, ": wavelengths not increasing (",
+                                 table.wavelengths_nm[j - 1], " nm, then ", nm, " nm)"));
         if (table.planes[j].size() != cells)
             throw InputError(cat(where, ": the plane of ", nm, " nm holds ", table.planes[j].size(),
                                  " values (", cells, " expected)"));
@@ -258,8 +261,8 @@ void write_spectral_exr(const std::filesystem::path& path, const SpectralTable& 
             any_data = true;
         }
         if (any_no_data && any_data)
-            throw NumericalError(cat(where, ": ", describe_cell(cell),
-                                     " is no data at some wavelengths only"));
+            throw NumericalError(
+                cat(where, ": ", describe_cell(cell), " is no data at some wavelengths only"));
         no_data_above_horizon += any_no_data;
     }
     if (no_data_above_horizon > 0)

@@ -22,7 +22,8 @@ namespace {
 
 using detail::display;
 
-// --- Little-endian fields -------------------------------------------------------------------------
+// --- Little-endian fields
+// -------------------------------------------------------------------------
 
 std::uint32_t load_u32(const unsigned char* p) {
     return std::uint32_t{p[0]} | std::uint32_t{p[1]} << 8 | std::uint32_t{p[2]} << 16 |
@@ -61,7 +62,8 @@ std::string u128_text(Uint128 v) {
     return s;
 }
 
-// --- Catmull-Rom in mu (PBR book section 8.6.1, CatmullRomWeights) --------------------------------
+// --- Catmull-Rom in mu (PBR book section 8.6.1, CatmullRomWeights)
+// --------------------------------
 
 struct SplineWeights {
     int offset = 0; ///< node of weights[0]; weights[k] belongs to node offset + k
@@ -120,7 +122,8 @@ double fourier_sum(const double* a, std::size_t m, double cos_phi) {
     return value;
 }
 
-// --- Validation -----------------------------------------------------------------------------------
+// --- Validation
+// -----------------------------------------------------------------------------------
 
 struct Fault {
     bool numerical = false; ///< a non-finite value (NumericalError when writing)
@@ -136,7 +139,8 @@ std::string float_text(float v) {
 }
 
 std::string pair_text(const FourierBsdf& b, std::size_t o, std::size_t i) {
-    return cat("pair o ", o, ", i ", i, " (mu_o ", float_text(b.mu[o]), ", mu_i ", float_text(b.mu[i]), ")");
+    return cat("pair o ", o, ", i ", i, " (mu_o ", float_text(b.mu[o]), ", mu_i ",
+               float_text(b.mu[i]), ")");
 }
 
 std::optional<Fault> find_fault(const FourierBsdf& b) {
@@ -149,8 +153,9 @@ std::optional<Fault> find_fault(const FourierBsdf& b) {
         if (m < -1.0f || m > 1.0f)
             return Fault{false, cat("node mu[", k, "] = ", float_text(m), " outside [-1, 1]")};
         if (k > 0 && m < b.mu[k - 1])
-            return Fault{false, cat("nodes not in increasing order (mu[", k - 1, "] = ",
-                                    float_text(b.mu[k - 1]), ", mu[", k, "] = ", float_text(m), ")")};
+            return Fault{false, cat("nodes not in increasing order (mu[", k - 1,
+                                    "] = ", float_text(b.mu[k - 1]), ", mu[", k,
+                                    "] = ", float_text(m), ")")};
     }
     if (!(b.mu.front() < b.mu.back()))
         return Fault{false, cat("all nodes equal (", float_text(b.mu.front()), ")")};
@@ -161,12 +166,15 @@ std::optional<Fault> find_fault(const FourierBsdf& b) {
                                 "): the last spline interval has zero width")};
     if (b.channels != 1 && b.channels != 3)
         return Fault{false, cat(b.channels, " channels (pbrt-v3 reads 1 or 3)")};
-    if (!std::isfinite(b.eta)) return Fault{true, cat("non-finite eta ", detail::value_text(b.eta))};
+    if (!std::isfinite(b.eta))
+        return Fault{true, cat("non-finite eta ", detail::value_text(b.eta))};
     if (!(b.eta > 0.0f)) return Fault{false, cat("eta ", float_text(b.eta), " (must be > 0)")};
     if (b.series.size() != n * n)
-        return Fault{false, cat(b.series.size(), " series for ", n, " nodes (", n * n, " expected)")};
+        return Fault{false,
+                     cat(b.series.size(), " series for ", n, " nodes (", n * n, " expected)")};
     if (b.cdf.size() != n * n)
-        return Fault{false, cat(b.cdf.size(), " cdf values for ", n, " nodes (", n * n, " expected)")};
+        return Fault{false,
+                     cat(b.cdf.size(), " cdf values for ", n, " nodes (", n * n, " expected)")};
     const std::uint64_t total = b.coefficients.size();
     std::uint32_t longest = 0;
     for (std::size_t o = 0; o < n; ++o)
@@ -175,8 +183,9 @@ std::optional<Fault> find_fault(const FourierBsdf& b) {
             const std::uint64_t end =
                 std::uint64_t{s.offset} + std::uint64_t{s.length} * std::uint64_t(b.channels);
             if (end > total)
-                return Fault{false, cat("series of ", pair_text(b, o, i), " runs past the coefficients (offset ",
-                                        s.offset, " + ", b.channels, " x ", s.length, " > ", total, ")")};
+                return Fault{false, cat("series of ", pair_text(b, o, i),
+                                        " runs past the coefficients (offset ", s.offset, " + ",
+                                        b.channels, " x ", s.length, " > ", total, ")")};
             if (s.length > b.max_order)
                 return Fault{false, cat("series of ", pair_text(b, o, i), " has ", s.length,
                                         " coefficients, more than mMax = ", b.max_order)};
@@ -204,7 +213,8 @@ constexpr const char* convention_text =
 
 } // namespace
 
-std::span<const float> FourierBsdf::coefficients_of(std::size_t o, std::size_t i, int channel) const {
+std::span<const float> FourierBsdf::coefficients_of(std::size_t o, std::size_t i,
+                                                    int channel) const {
     const Series& s = at(o, i);
     return {coefficients.data() + s.offset + std::size_t(channel) * s.length, s.length};
 }
@@ -252,11 +262,11 @@ FourierBsdf read_fourier_bsdf(const std::filesystem::path& path) {
     if (got < 7 || std::memcmp(h, fourier_magic.data(), 7) != 0)
         throw FormatError(cat(where, ": not a Fourier BSDF file (no \"SCATFUN\" magic)"));
     if (got < fourier_header_size)
-        throw FormatError(cat(where, ": truncated header (", fourier_header_size, " bytes expected, ",
-                              got, " found)"));
+        throw FormatError(cat(where, ": truncated header (", fourier_header_size,
+                              " bytes expected, ", got, " found)"));
     if (h[7] != static_cast<unsigned char>(fourier_magic[7]))
-        throw FormatError(cat(where, ": unsupported SCATFUN version ", int(h[7]),
-                              " (pbrt-v3 reads version 1)"));
+        throw FormatError(
+            cat(where, ": unsupported SCATFUN version ", int(h[7]), " (pbrt-v3 reads version 1)"));
     const std::uint32_t flags = load_u32(h + off_flags);
     if (flags != fourier_flag_bsdf) {
         if (flags & fourier_flag_extrapolated)
@@ -274,8 +284,9 @@ FourierBsdf read_fourier_bsdf(const std::filesystem::path& path) {
     if (channels != 1 && channels != 3)
         throw FormatError(cat(where, ": ", channels, " channels (pbrt-v3 reads 1 or 3)"));
     if (bases != 1 || parameters != 0 || parameter_values != 0)
-        throw FormatError(cat(where, ": textured BSDF (", bases, " bases, ", parameters,
-                              " parameters) is not supported (pbrt-v3 reads 1 basis, no parameters)"));
+        throw FormatError(
+            cat(where, ": textured BSDF (", bases, " bases, ", parameters,
+                " parameters) is not supported (pbrt-v3 reads 1 basis, no parameters)"));
     if (nodes < 2) throw FormatError(cat(where, ": ", nodes, " nodes (at least 2 needed)"));
     // pbrt-v3 reads the counts as int32: larger ones it would misread.
     constexpr std::uint32_t int_max = std::numeric_limits<std::int32_t>::max();
@@ -285,7 +296,8 @@ FourierBsdf read_fourier_bsdf(const std::filesystem::path& path) {
                               " metadata bytes; pbrt-v3 reads int32)"));
     // Only a file that holds every byte the counts imply is read: this bounds every allocation.
     const Uint128 expected = implied_size(nodes, coeffs, metadata);
-    const std::string counts = cat(nodes, " nodes, ", coeffs, " coefficients, ", metadata, " metadata bytes");
+    const std::string counts =
+        cat(nodes, " nodes, ", coeffs, " coefficients, ", metadata, " metadata bytes");
     if (expected > size)
         throw FormatError(cat(where, ": truncated (", u128_text(expected),
                               " bytes expected from the header: ", counts, "; ", size, " found)"));
@@ -335,8 +347,8 @@ void write_fourier_bsdf(const std::filesystem::path& path, const FourierBsdf& b)
         throw LimitError(cat(display(path), ": too large for pbrt-v3's int32 counts (",
                              b.coefficients.size(), " coefficients)"));
     const std::size_t n = b.mu.size(), pairs = n * n;
-    const auto total = static_cast<std::size_t>(
-        implied_size(n, b.coefficients.size(), b.metadata.size()));
+    const auto total =
+        static_cast<std::size_t>(implied_size(n, b.coefficients.size(), b.metadata.size()));
     unsigned char h[fourier_header_size] = {};
     std::memcpy(h, fourier_magic.data(), fourier_magic.size());
     store_u32(h + off_flags, fourier_flag_bsdf);
@@ -413,7 +425,9 @@ Rgb evaluate(const FourierBsdf& bsdf, const Vec3& wi, const Vec3& wo) {
     // pbrt-v3's CosDPhi(-wi, wo).
     const double a = wi.x * wi.x + wi.y * wi.y, c = wo.x * wo.x + wo.y * wo.y;
     const double cos_phi =
-        a == 0.0 || c == 0.0 ? 1.0 : std::clamp((-wi.x * wo.x - wi.y * wo.y) / std::sqrt(a * c), -1.0, 1.0);
+        a == 0.0 || c == 0.0
+            ? 1.0
+            : std::clamp((-wi.x * wo.x - wi.y * wo.y) / std::sqrt(a * c), -1.0, 1.0);
     return evaluate_pbrt(bsdf, -wi.z, wo.z, cos_phi);
 }
 
@@ -426,7 +440,8 @@ BrdfTable tabulate_fourier(const FourierBsdf& bsdf) {
             for (int k = 0; k < phi_d_bins; ++k) {
                 const std::size_t cell = cell_index(i, j, k);
                 if (cell_below_horizon(cell)) continue;
-                const DirectionPair d = to_directions(theta_h_centre(i), theta_d_centre(j), phi_d_centre(k));
+                const DirectionPair d =
+                    to_directions(theta_h_centre(i), theta_d_centre(j), phi_d_centre(k));
                 table.set(cell, evaluate(bsdf, d.wi, d.wo));
             }
     });
@@ -447,8 +462,10 @@ double integrate_catmull_rom(std::span<const double> x, std::span<const double> 
         const double width = x[i + 1] - x[i];
         // The Hermite tangents of spline_weights (times the width), integrated exactly: the
         // segment's integral is width * ((f0 + f1) / 2 + (d0 - d1) / 12).
-        const double d0 = i > 0 ? width * (f[i + 1] - f[i - 1]) / (x[i + 1] - x[i - 1]) : f[i + 1] - f[i];
-        const double d1 = i + 2 < n ? width * (f[i + 2] - f[i]) / (x[i + 2] - x[i]) : f[i + 1] - f[i];
+        const double d0 =
+            i > 0 ? width * (f[i + 1] - f[i - 1]) / (x[i + 1] - x[i - 1]) : f[i + 1] - f[i];
+        const double d1 =
+            i + 2 < n ? width * (f[i + 2] - f[i]) / (x[i + 2] - x[i]) : f[i + 1] - f[i];
         if (width > 0.0) sum += ((d0 - d1) / 12.0 + (f[i] + f[i + 1]) * 0.5) * width;
         cdf[i + 1] = sum;
     }
@@ -457,15 +474,17 @@ double integrate_catmull_rom(std::span<const double> x, std::span<const double> 
 
 FourierBsdf make_fourier_bsdf(std::span<const double> mu, int orders, const FourierSeriesSource& b,
                               const FourierBuildOptions& options) {
-    if (orders < 1) throw InputError(cat("make_fourier_bsdf: orders must be >= 1 (got ", orders, ")"));
+    if (orders < 1)
+        throw InputError(cat("make_fourier_bsdf: orders must be >= 1 (got ", orders, ")"));
     if (options.channels != 1 && options.channels != 3)
-        throw InputError(cat("make_fourier_bsdf: channels must be 1 or 3 (got ", options.channels, ")"));
+        throw InputError(
+            cat("make_fourier_bsdf: channels must be 1 or 3 (got ", options.channels, ")"));
     if (!(options.truncation >= 0.0) || !std::isfinite(options.truncation))
         throw InputError(cat("make_fourier_bsdf: truncation must be >= 0 (got ",
                              detail::value_text(options.truncation), ")"));
     if (!(options.eta > 0.0f) || !std::isfinite(options.eta))
-        throw InputError(cat("make_fourier_bsdf: eta must be > 0 (got ",
-                             detail::value_text(options.eta), ")"));
+        throw InputError(
+            cat("make_fourier_bsdf: eta must be > 0 (got ", detail::value_text(options.eta), ")"));
     if (mu.empty()) throw InputError("make_fourier_bsdf: no nodes");
     // The file holds float32 nodes; b is evaluated at exactly those.
     std::vector<double> positive;
@@ -476,7 +495,8 @@ FourierBsdf make_fourier_bsdf(std::span<const double> mu, int orders, const Four
                                  " is not in (0, 1]"));
         if (!positive.empty() && !(m > positive.back()))
             throw InputError(cat("make_fourier_bsdf: mu[", k, "] = ", mu[k], " is not above mu[",
-                                 k - 1, "] = ", mu[k - 1], " in float32 (nodes ascending, distinct)"));
+                                 k - 1, "] = ", mu[k - 1],
+                                 " in float32 (nodes ascending, distinct)"));
         positive.push_back(m);
     }
     if (positive.back() != 1.0) positive.push_back(1.0);
@@ -504,8 +524,10 @@ FourierBsdf make_fourier_bsdf(std::span<const double> mu, int orders, const Four
         double tail = 0.0;
         for (std::size_t k = m_count - 1; k >= 1; --k) {
             tail += std::abs(a[k]);
-            if (tail <= options.truncation * std::abs(a[0])) length = k;
-            else break;
+            if (tail <= options.truncation * std::abs(a[0]))
+                length = k;
+            else
+                break;
         }
         if (length == 1 && a[0] == 0.0) length = 0;
         return length;
@@ -513,8 +535,8 @@ FourierBsdf make_fourier_bsdf(std::span<const double> mu, int orders, const Four
     for (std::size_t o = 0; o < n; ++o)
         for (std::size_t i = 0; i < n; ++i) {
             FourierBsdf::Series& s = out.series[o * n + i];
-            s.offset = static_cast<std::uint32_t>(std::min<std::size_t>(out.coefficients.size(),
-                                                                        std::numeric_limits<std::uint32_t>::max()));
+            s.offset = static_cast<std::uint32_t>(std::min<std::size_t>(
+                out.coefficients.size(), std::numeric_limits<std::uint32_t>::max()));
             // Reflection from above only: light above (mu_i <= -0), viewer above (mu_o >= +0).
             // The row mu_i = -0 is zero: a_k carries the factor |mu_i|.
             if (!(o >= plus_zero && i < minus_zero)) continue;
@@ -524,10 +546,10 @@ FourierBsdf make_fourier_bsdf(std::span<const double> mu, int orders, const Four
             b(mu_light, mu_view, source);
             for (std::size_t k = 0; k < source.size(); ++k)
                 if (!std::isfinite(source[k]))
-                    throw NumericalError(cat("make_fourier_bsdf: non-finite coefficient ",
-                                             detail::value_text(source[k]), " of order ", k % m_count,
-                                             " in the ", channel_name(int(k / m_count)),
-                                             " channel at mu_i ", mu_light, ", mu_o ", mu_view));
+                    throw NumericalError(cat(
+                        "make_fourier_bsdf: non-finite coefficient ", detail::value_text(source[k]),
+                        " of order ", k % m_count, " in the ", channel_name(int(k / m_count)),
+                        " channel at mu_i ", mu_light, ", mu_o ", mu_view));
             // Our phi = pi - phi' makes cos(m phi) = (-1)^m cos(m phi'); and pbrt-v3 stores
             // f |mu_i| (PBR eq. 8.21).
             for (std::size_t k = 0; k < m_count; ++k) {
@@ -540,12 +562,14 @@ FourierBsdf make_fourier_bsdf(std::span<const double> mu, int orders, const Four
                 stored[2][k] = bl;
             }
             std::size_t length = 0;
-            for (int c = 0; c < options.channels; ++c) length = std::max(length, kept_length(stored[c]));
+            for (int c = 0; c < options.channels; ++c)
+                length = std::max(length, kept_length(stored[c]));
             if (length == 0) continue;
-            const std::size_t end = out.coefficients.size() + length * std::size_t(options.channels);
+            const std::size_t end =
+                out.coefficients.size() + length * std::size_t(options.channels);
             if (end > std::size_t(std::numeric_limits<std::int32_t>::max()))
-                throw LimitError(cat("make_fourier_bsdf: more than 2^31 - 1 coefficients (",
-                                     n, " nodes, ", orders, " orders): pbrt-v3 counts them in int32"));
+                throw LimitError(cat("make_fourier_bsdf: more than 2^31 - 1 coefficients (", n,
+                                     " nodes, ", orders, " orders): pbrt-v3 counts them in int32"));
             s.length = static_cast<std::uint32_t>(length);
             out.max_order = std::max(out.max_order, s.length);
             for (int c = 0; c < options.channels; ++c)

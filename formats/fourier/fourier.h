@@ -61,8 +61,8 @@ struct FourierBsdf {
     int channels = 3;
     /// mMax: the length of the longest series.
     std::uint32_t max_order = 0;
-    /// eta(bottom) / eta(top); pbrt-v3 uses it only to scale transmission. 1 for our reflection-only
-    /// tables.
+    /// eta(bottom) / eta(top); pbrt-v3 uses it only to scale transmission. 1 for our
+    /// reflection-only tables.
     float eta = 1.0f;
     /// Beckmann-equivalent roughness of the top and bottom interface (layerlab's header; pbrt-v3
     /// ignores it).
@@ -143,7 +143,8 @@ Rgb evaluate(const FourierBsdf& bsdf, const Vec3& wi, const Vec3& wo);
 /// spec, generator and colorspace come from our metadata when the file has it.
 BrdfTable tabulate_fourier(const FourierBsdf& bsdf);
 
-// --- From our model -------------------------------------------------------------------------------
+// --- From our model
+// -------------------------------------------------------------------------------
 
 /// The cosine series of a reflection-only BRDF at one pair of cosines, in OUR convention:
 ///     f(theta_i, theta_o, phi) = sum_{m < orders} b_m(mu_i, mu_o) cos(m phi),   1/sr,

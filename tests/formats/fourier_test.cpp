@@ -21,7 +21,8 @@ namespace {
 namespace fs = std::filesystem;
 using test::TempDir;
 
-// --- The analytic BRDF ------------------------------------------------------------------------------
+// --- The analytic BRDF
+// ------------------------------------------------------------------------------
 //
 // f_c = rho_c / pi + k_c (1 - mu_i^2)(1 - mu_o^2) ((1 - cos phi) / 2)^n: Lambertian plus a lobe on
 // the mirror side (phi = pi) that vanishes at normal incidence, as an isotropic BRDF must. Its
@@ -50,7 +51,8 @@ void analytic_series(double mu_i, double mu_o, std::span<double> out) {
     const double s = (1 - mu_i * mu_i) * (1 - mu_o * mu_o);
     const double scale = std::pow(0.25, lobe_power);
     for (int c = 0; c < 3; ++c) {
-        out[c * analytic_orders] = rho[c] / pi + lobe[c] * s * scale * binomial(2 * lobe_power, lobe_power);
+        out[c * analytic_orders] =
+            rho[c] / pi + lobe[c] * s * scale * binomial(2 * lobe_power, lobe_power);
         for (int m = 1; m <= lobe_power; ++m)
             out[c * analytic_orders + m] = lobe[c] * s * scale * 2 * (m % 2 ? -1.0 : 1.0) *
                                            binomial(2 * lobe_power, lobe_power - m);
@@ -122,7 +124,8 @@ TEST(FourierBridge, AgreesWithTheAnalyticBrdfAtTheNodes) {
                 const Rgb got = evaluate(b, ti, to, phi), want = analytic(ti, to, phi);
                 for (int c = 0; c < 3; ++c)
                     EXPECT_REL_NEAR(got[c], want[c], node_tolerance)
-                        << "mu_i " << mi << ", mu_o " << mo << ", phi " << phi << ", " << channel_name(c);
+                        << "mu_i " << mi << ", mu_o " << mo << ", phi " << phi << ", "
+                        << channel_name(c);
             }
 }
 
@@ -132,18 +135,19 @@ TEST(FourierBridge, OneChannelHoldsTheLuminance) {
     EXPECT_EQ(b.channels, 1);
     const double ti = std::acos(0.5), to = std::acos(0.75);
     const Rgb got = evaluate(b, ti, to, 2.5), want = analytic(ti, to, 2.5);
-    const double y = fourier_luminance_weights[0] * want[0] + fourier_luminance_weights[1] * want[1] +
+    const double y = fourier_luminance_weights[0] * want[0] +
+                     fourier_luminance_weights[1] * want[1] +
                      fourier_luminance_weights[2] * want[2];
     for (int c = 0; c < 3; ++c) EXPECT_REL_NEAR(got[c], y, 1e-6);
 }
 
-// Between the nodes the Catmull-Rom spline in mu_i and mu_o is the only error (the series is exact).
-// Measured on uniform nodes k / N, theta up to 85 degrees: N = 8: 6.5e-2, 16: 1.5e-2, 32: 4.3e-3
-// (also by tests/formats/fourier_reader.py). Second order: the end intervals have one-sided
-// tangents (at mu = 1, where a_k = mu_i f is cubic in mu_i), and the tangent at mu_o = +0 takes the
-// zero of the transmission node -0 (the worst case of N = 8 is theta_i = theta_o = 85 degrees, in
-// the interval [0, 1/8]). Interior intervals of a uniform grid reproduce quadratics exactly. The
-// bounds are 1.2x the measured values.
+// Between the nodes the Catmull-Rom spline in mu_i and mu_o is the only error (the series is
+// exact). Measured on uniform nodes k / N, theta up to 85 degrees: N = 8: 6.5e-2, 16: 1.5e-2,
+// 32: 4.3e-3 (also by tests/formats/fourier_reader.py). Second order: the end intervals have
+// one-sided tangents (at mu = 1, where a_k = mu_i f is cubic in mu_i), and the tangent at mu_o = +0
+// takes the zero of the transmission node -0 (the worst case of N = 8 is theta_i = theta_o = 85
+// degrees, in the interval [0, 1/8]). Interior intervals of a uniform grid reproduce quadratics
+// exactly. The bounds are 1.2x the measured values.
 TEST(FourierBridge, BetweenNodesTheErrorIsTheSplineErrorAndConverges) {
     const double e8 = max_error(analytic_bsdf(uniform_nodes(8)), 85.0, 40);
     const double e16 = max_error(analytic_bsdf(uniform_nodes(16)), 85.0, 40);
@@ -217,7 +221,8 @@ TEST(FourierBridge, CdfIsTheIntegralOfA0OverMuI) {
         for (std::size_t i = 0; i < n; ++i) {
             const double m = b.mu[i];
             const bool viewer_above = o >= n / 2; // +0 and up
-            const double want = viewer_above ? y / (2 * pi) * (1 - std::min(m, 0.0) * std::min(m, 0.0)) : 0.0;
+            const double want =
+                viewer_above ? y / (2 * pi) * (1 - std::min(m, 0.0) * std::min(m, 0.0)) : 0.0;
             EXPECT_NEAR(b.cdf[o * n + i], want, 1e-7) << "o " << o << ", i " << i;
         }
     EXPECT_EQ(b.max_order, 1u);
@@ -229,7 +234,8 @@ TEST(FourierBridge, TruncationDropsNegligibleOrdersWithinTheTolerance) {
     const auto geometric = [](double mu_i, double mu_o, std::span<double> out) {
         const double s = (1 - mu_i * mu_i) * (1 - mu_o * mu_o);
         for (int c = 0; c < 3; ++c)
-            for (int m = 0; m < 40; ++m) out[c * 40 + m] = (0.2 / pi) * (m == 0 ? 1.0 : s * std::pow(0.5, m));
+            for (int m = 0; m < 40; ++m)
+                out[c * 40 + m] = (0.2 / pi) * (m == 0 ? 1.0 : s * std::pow(0.5, m));
     };
     FourierBuildOptions options;
     options.truncation = 1e-3;
@@ -247,13 +253,15 @@ TEST(FourierBridge, TruncationDropsNegligibleOrdersWithinTheTolerance) {
                 const double ti = std::acos(mi), to = std::acos(mo), phi = pi * p / 24;
                 const Rgb a = evaluate(cut, ti, to, phi), c = evaluate(full, ti, to, phi);
                 // Relative to b_0 = the mean over phi (0.2 / pi), with float rounding on top.
-                for (int ch = 0; ch < 3; ++ch) EXPECT_LE(std::abs(a[ch] - c[ch]), 1.1e-3 * 0.2 / pi);
+                for (int ch = 0; ch < 3; ++ch)
+                    EXPECT_LE(std::abs(a[ch] - c[ch]), 1.1e-3 * 0.2 / pi);
             }
 }
 
 TEST(FourierBridge, RefusesBadInput) {
     const auto none = [](double, double, std::span<double>) {};
-    const std::vector<double> zero{0.0, 0.5}, unsorted{0.5, 0.25}, above{0.5, 1.5}, same{0.5, 0.50000001};
+    const std::vector<double> zero{0.0, 0.5}, unsorted{0.5, 0.25}, above{0.5, 1.5},
+        same{0.5, 0.50000001};
     EXPECT_THROW_MESSAGE(make_fourier_bsdf(zero, 1, none), InputError,
                          "make_fourier_bsdf: mu[0] = 0 is not in (0, 1]");
     EXPECT_THROW_MESSAGE(make_fourier_bsdf(above, 1, none), InputError,
@@ -261,9 +269,10 @@ TEST(FourierBridge, RefusesBadInput) {
     EXPECT_THROW_MESSAGE(make_fourier_bsdf(unsorted, 1, none), InputError,
                          "make_fourier_bsdf: mu[1] = 0.25 is not above mu[0] = 0.5 in float32 "
                          "(nodes ascending, distinct)");
-    EXPECT_THROW_MESSAGE(make_fourier_bsdf(same, 1, none), InputError,
-                         "make_fourier_bsdf: mu[1] = 0.50000001 is not above mu[0] = 0.5 in float32 "
-                         "(nodes ascending, distinct)");
+    EXPECT_THROW_MESSAGE(
+        make_fourier_bsdf(same, 1, none), InputError,
+        "make_fourier_bsdf: mu[1] = 0.50000001 is not above mu[0] = 0.5 in float32 "
+        "(nodes ascending, distinct)");
     const std::vector<double> ok{0.5};
     EXPECT_THROW_MESSAGE(make_fourier_bsdf(ok, 0, none), InputError,
                          "make_fourier_bsdf: orders must be >= 1 (got 0)");
@@ -275,7 +284,8 @@ TEST(FourierBridge, RefusesBadInput) {
                          "channel at mu_i 1, mu_o 1");
 }
 
-// --- The file --------------------------------------------------------------------------------------
+// --- The file
+// --------------------------------------------------------------------------------------
 
 std::uint32_t u32_at(const std::string& s, std::size_t offset) {
     std::uint32_t v = 0;
@@ -297,16 +307,16 @@ TEST(FourierFile, HeaderAndArraysAreWherePbrtV3ReadsThem) {
     const std::size_t n = b.nodes(); // -1, -0.5, 0, 0, 0.5, 1
     ASSERT_EQ(n, 6u);
     EXPECT_EQ(s.substr(0, 8), std::string("SCATFUN\x01", 8));
-    EXPECT_EQ(u32_at(s, 8), 1u);                         // flags: a BSDF
-    EXPECT_EQ(u32_at(s, 12), n);                         // nMu
-    EXPECT_EQ(u32_at(s, 16), b.coefficients.size());     // nCoeffs
+    EXPECT_EQ(u32_at(s, 8), 1u);                              // flags: a BSDF
+    EXPECT_EQ(u32_at(s, 12), n);                              // nMu
+    EXPECT_EQ(u32_at(s, 16), b.coefficients.size());          // nCoeffs
     EXPECT_EQ(u32_at(s, 20), std::uint32_t(analytic_orders)); // mMax
-    EXPECT_EQ(u32_at(s, 24), 3u);                        // nChannels
-    EXPECT_EQ(u32_at(s, 28), 1u);                        // nBases
-    EXPECT_EQ(u32_at(s, 32), b.metadata.size());         // nMetadataBytes
-    EXPECT_EQ(u32_at(s, 36), 0u);                        // nParameters
-    EXPECT_EQ(u32_at(s, 40), 0u);                        // nParameterValues
-    EXPECT_EQ(f32_at(s, 44), 1.0f);                      // eta
+    EXPECT_EQ(u32_at(s, 24), 3u);                             // nChannels
+    EXPECT_EQ(u32_at(s, 28), 1u);                             // nBases
+    EXPECT_EQ(u32_at(s, 32), b.metadata.size());              // nMetadataBytes
+    EXPECT_EQ(u32_at(s, 36), 0u);                             // nParameters
+    EXPECT_EQ(u32_at(s, 40), 0u);                             // nParameterValues
+    EXPECT_EQ(f32_at(s, 44), 1.0f);                           // eta
     for (std::size_t k = 48; k < 64; k += 4) EXPECT_EQ(u32_at(s, k), 0u);
     for (std::size_t k = 0; k < n; ++k) EXPECT_EQ(f32_at(s, 64 + 4 * k), b.mu[k]);
     const std::size_t cdf = 64 + 4 * n, table = cdf + 4 * n * n, coeffs = table + 8 * n * n;
@@ -391,7 +401,8 @@ TEST(FourierFile, WriteIsAtomicAndRefusesBadContent) {
     EXPECT_THROW(write_fourier_bsdf(dir / "missing" / "a.bsdf", b), IoError);
 }
 
-// --- Bad files -------------------------------------------------------------------------------------
+// --- Bad files
+// -------------------------------------------------------------------------------------
 
 class FourierBad : public ::testing::Test {
   protected:
@@ -426,19 +437,21 @@ TEST_F(FourierBad, EachFaultIsOneLineNamingIt) {
     const std::size_t size = valid.size();
     EXPECT_EQ(message(""), "empty file (not a Fourier BSDF)");
     EXPECT_EQ(message(valid.substr(0, 40)), "truncated header (64 bytes expected, 40 found)");
-    EXPECT_EQ(message(test::merl_header(90, 90, 180)), "not a Fourier BSDF file (no \"SCATFUN\" magic)");
+    EXPECT_EQ(message(test::merl_header(90, 90, 180)),
+              "not a Fourier BSDF file (no \"SCATFUN\" magic)");
     EXPECT_EQ(message(valid.substr(0, size - 1)),
               "truncated (" + std::to_string(size) + " bytes expected from the header: 6 nodes, " +
                   std::to_string(u32_at(valid, 16)) + " coefficients, " +
-                  std::to_string(u32_at(valid, 32)) + " metadata bytes; " + std::to_string(size - 1) +
-                  " found)");
+                  std::to_string(u32_at(valid, 32)) + " metadata bytes; " +
+                  std::to_string(size - 1) + " found)");
     EXPECT_EQ(message(valid + "x").substr(0, 11), "wrong size ");
     std::string v = valid;
     v[7] = 2;
     EXPECT_EQ(message(v), "unsupported SCATFUN version 2 (pbrt-v3 reads version 1)");
     v = valid;
     put_u32_at(v, 8, 3);
-    EXPECT_EQ(message(v), "harmonic extrapolation (flags 0x3) is not supported (pbrt-v3 reads flags 0x1 only)");
+    EXPECT_EQ(message(v),
+              "harmonic extrapolation (flags 0x3) is not supported (pbrt-v3 reads flags 0x1 only)");
     put_u32_at(v, 8, 0);
     EXPECT_EQ(message(v), "unsupported flags 0x0 (pbrt-v3 reads flags 0x1: a BSDF)");
     v = valid;
@@ -446,7 +459,8 @@ TEST_F(FourierBad, EachFaultIsOneLineNamingIt) {
     EXPECT_EQ(message(v), "2 channels (pbrt-v3 reads 1 or 3)");
     v = valid;
     put_u32_at(v, 28, 4);
-    EXPECT_EQ(message(v), "textured BSDF (4 bases, 0 parameters) is not supported (pbrt-v3 reads 1 basis, no parameters)");
+    EXPECT_EQ(message(v), "textured BSDF (4 bases, 0 parameters) is not supported (pbrt-v3 reads 1 "
+                          "basis, no parameters)");
     v = valid;
     put_u32_at(v, 12, 0xffffffffu);
     EXPECT_EQ(message(v).substr(0, 26), "header counts out of range");
@@ -463,7 +477,8 @@ TEST_F(FourierBad, EachFaultIsOneLineNamingIt) {
     EXPECT_EQ(message(v), "nodes not in increasing order (mu[1] = 0.9, mu[2] = 0)");
     v = valid;
     put_u32_at(v, 64 + 4 * 4, std::bit_cast<std::uint32_t>(1.0f));
-    EXPECT_EQ(message(v), "the last two nodes are equal (1): the last spline interval has zero width");
+    EXPECT_EQ(message(v),
+              "the last two nodes are equal (1): the last spline interval has zero width");
     v = valid;
     put_u32_at(v, 64 + 4 * nodes + 4 * 7, 0x7f800000u);
     EXPECT_EQ(message(v), "non-finite cdf value inf of pair o 1, i 1 (mu_o -0.5, mu_i -0.5)");
@@ -480,7 +495,8 @@ TEST_F(FourierBad, EachFaultIsOneLineNamingIt) {
 TEST_F(FourierBad, CheckedInSpecimens) {
     const fs::path folder = test::source_dir() / "tests/data/bad";
     for (const test::MerlSpecimen& s : test::fourier_specimens())
-        EXPECT_EQ(test::read_file(folder / s.name), s.bytes) << s.name << " differs from its definition";
+        EXPECT_EQ(test::read_file(folder / s.name), s.bytes)
+            << s.name << " differs from its definition";
     const auto expect = [&](const char* name, const std::string& message) {
         const fs::path p = folder / name;
         EXPECT_THROW_MESSAGE(read_fourier_bsdf(p), FormatError, p.string() + ": " + message);
@@ -492,17 +508,19 @@ TEST_F(FourierBad, CheckedInSpecimens) {
                                          " bytes expected from the header: " + counts + "; " +
                                          std::to_string(size / 2) + " found)");
     expect("fourier_wrong_magic.bsdf", "not a Fourier BSDF file (no \"SCATFUN\" magic)");
-    expect("fourier_bad_offset.bsdf",
-           "series of pair o 5, i 0 (mu_o 1, mu_i -1) runs past the coefficients (offset 1000000 + 3 x 1 > " +
-               std::to_string(u32_at(valid, 16)) + ")");
+    expect("fourier_bad_offset.bsdf", "series of pair o 5, i 0 (mu_o 1, mu_i -1) runs past the "
+                                      "coefficients (offset 1000000 + 3 x 1 > " +
+                                          std::to_string(u32_at(valid, 16)) + ")");
     // 64 + 4 n + 12 n^2 + 4 c + metadata with n = c = 2^31 - 1: 55340232186768916548 + metadata.
     __extension__ typedef unsigned __int128 Uint128;
     Uint128 huge = Uint128{5534023218676891654u} * 10 + 8 + u32_at(valid, 32);
     std::string digits;
     for (; huge > 0; huge /= 10) digits.insert(digits.begin(), char('0' + int(huge % 10)));
-    expect("fourier_huge_counts.bsdf",
-           "truncated (" + digits + " bytes expected from the header: 2147483647 nodes, "
-           "2147483647 coefficients, " + std::to_string(u32_at(valid, 32)) + " metadata bytes; 64 found)");
+    expect("fourier_huge_counts.bsdf", "truncated (" + digits +
+                                           " bytes expected from the header: 2147483647 nodes, "
+                                           "2147483647 coefficients, " +
+                                           std::to_string(u32_at(valid, 32)) +
+                                           " metadata bytes; 64 found)");
     expect("fourier_nan.bsdf", "non-finite coefficient NaN at index 0");
 }
 
@@ -520,7 +538,8 @@ TEST_F(FourierBad, MissingFileAndFolderAreIoErrors) {
     EXPECT_THROW(read_fourier_bsdf(dir.path()), IoError);
 }
 
-// --- Tables ----------------------------------------------------------------------------------------
+// --- Tables
+// ----------------------------------------------------------------------------------------
 
 TEST(FourierTable, TabulatesAtTheCellCentresWithProvenance) {
     const FourierBsdf b = analytic_bsdf(uniform_nodes(8));
@@ -528,18 +547,20 @@ TEST(FourierTable, TabulatesAtTheCellCentresWithProvenance) {
     EXPECT_EQ(t.generator, "formats tests");
     EXPECT_EQ(t.colorspace, "rec709");
     EXPECT_EQ(t.spec.substr(0, 20), R"({"name": "analytic",)");
-    for (std::size_t cell : {cell_index(10, 20, 30), cell_index(60, 5, 170), cell_index(89, 80, 1)}) {
+    for (std::size_t cell :
+         {cell_index(10, 20, 30), cell_index(60, 5, 170), cell_index(89, 80, 1)}) {
         if (cell_below_horizon(cell)) continue;
         const CellIndices ix = cell_indices(cell);
-        const DirectionPair d =
-            to_directions(theta_h_centre(ix.theta_h), theta_d_centre(ix.theta_d), phi_d_centre(ix.phi_d));
+        const DirectionPair d = to_directions(theta_h_centre(ix.theta_h),
+                                              theta_d_centre(ix.theta_d), phi_d_centre(ix.phi_d));
         const Rgb want = evaluate(b, d.wi, d.wo);
         for (int c = 0; c < 3; ++c) EXPECT_EQ(t.channels[c][cell], want[c]);
     }
     EXPECT_EQ(t.data_cells(), cells - 361784);
 }
 
-// --- The independent Python reader ----------------------------------------------------------------
+// --- The independent Python reader
+// ----------------------------------------------------------------
 
 TEST(FourierPythonReader, AgreesWithEvaluateToOneInAMillion) {
     TempDir dir;
@@ -560,10 +581,9 @@ TEST(FourierPythonReader, AgreesWithEvaluateToOneInAMillion) {
         if (m > 0) row(std::acos(double(m)), std::acos(0.3), 1.0);
     row(0.0, 0.0, 0.0);
     csv.close();
-    const test::ProcessResult r =
-        test::run_process({BRDF_PYTHON3, (test::source_dir() / "tests/formats/fourier_reader.py").string(),
-                           (dir / "a.bsdf").string(), "--check", (dir / "ours.txt").string(),
-                           "--tolerance", "1e-6"});
+    const test::ProcessResult r = test::run_process(
+        {BRDF_PYTHON3, (test::source_dir() / "tests/formats/fourier_reader.py").string(),
+         (dir / "a.bsdf").string(), "--check", (dir / "ours.txt").string(), "--tolerance", "1e-6"});
     EXPECT_EQ(r.status, 0) << r.out << r.err;
     EXPECT_NE(r.out.find(std::to_string(rows) + " directions"), std::string::npos) << r.out;
     // The reader can fail: a file evaluated with the azimuth reversed does not pass.
@@ -571,12 +591,13 @@ TEST(FourierPythonReader, AgreesWithEvaluateToOneInAMillion) {
     wrong.precision(17);
     for (double phi : {0.0, 0.5, 1.0}) {
         const Rgb v = evaluate(b, 0.6, 0.8, pi - phi);
-        wrong << 0.6 << ' ' << 0.8 << ' ' << phi << ' ' << v[0] << ' ' << v[1] << ' ' << v[2] << '\n';
+        wrong << 0.6 << ' ' << 0.8 << ' ' << phi << ' ' << v[0] << ' ' << v[1] << ' ' << v[2]
+              << '\n';
     }
     wrong.close();
-    const test::ProcessResult w =
-        test::run_process({BRDF_PYTHON3, (test::source_dir() / "tests/formats/fourier_reader.py").string(),
-                           (dir / "a.bsdf").string(), "--check", (dir / "wrong.txt").string()});
+    const test::ProcessResult w = test::run_process(
+        {BRDF_PYTHON3, (test::source_dir() / "tests/formats/fourier_reader.py").string(),
+         (dir / "a.bsdf").string(), "--check", (dir / "wrong.txt").string()});
     EXPECT_EQ(w.status, 1) << w.out << w.err;
 }
 
@@ -598,7 +619,8 @@ TEST(FourierPythonReader, ModelModeChecksTheSplineErrorAgainstLimits) {
     csv << 0.0 << ' ' << 1.55 << ' ' << 0.0 << " 1 1 1\n"; // beyond 85 degrees: not compared
     csv.close();
     const auto run = [&](const char* file) {
-        return test::run_process({BRDF_PYTHON3, (test::source_dir() / "tests/formats/fourier_reader.py").string(),
+        return test::run_process({BRDF_PYTHON3,
+                                  (test::source_dir() / "tests/formats/fourier_reader.py").string(),
                                   (dir / file).string(), "--model", (dir / "model.txt").string()});
     };
     const test::ProcessResult fine = run("n32.bsdf"), coarse = run("n8.bsdf");

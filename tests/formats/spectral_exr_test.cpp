@@ -32,7 +32,8 @@ SpectralTable analytic_spectral(std::vector<double> nm = {450.0, 550.0, 650.0}) 
     const BrdfTable& rgb = test::analytic_table();
     for (std::size_t j = 0; j < nm.size(); ++j)
         for (std::size_t cell = 0; cell < cells; ++cell)
-            if (rgb.has_data(cell)) t.planes[j][cell] = float(rgb.channels[j % 3][cell] * (1.0 + 0.1 * j));
+            if (rgb.has_data(cell))
+                t.planes[j][cell] = float(rgb.channels[j % 3][cell] * (1.0 + 0.1 * j));
     t.spec = rgb.spec;
     t.generator = "formats tests";
     return t;
@@ -47,7 +48,8 @@ TEST(SpectralExr, ChannelNamesFollowThePaper) {
     EXPECT_DOUBLE_EQ(parse_spectral_channel("T.0,55um"), 550.0);
     EXPECT_DOUBLE_EQ(parse_spectral_channel("T.5,5E+2nm"), 550.0);
     EXPECT_NEAR(parse_spectral_channel("T.545,077196THz"), 550.0, 1e-6); // c / 545.08 THz
-    for (const char* not_spectral : {"R", "T", "T.nm", "S0.550nm", "T.550", "T.550,0nmx", "T.-5nm", "T.0nm"})
+    for (const char* not_spectral :
+         {"R", "T", "T.nm", "S0.550nm", "T.550", "T.550,0nmx", "T.-5nm", "T.0nm"})
         EXPECT_LT(parse_spectral_channel(not_spectral), 0.0) << not_spectral;
     // A wavelength six decimals cannot hold is written with more.
     const double odd = 550.0 + 1.0 / 3.0;
@@ -81,12 +83,15 @@ TEST(SpectralExr, OpenImageIOSeesTheLayout) {
 }
 
 TEST(SpectralExr, ExrheaderReadsIt) {
-    if (!fs::exists("/usr/bin/exrheader")) GTEST_SKIP() << "exrheader (Debian package openexr) not installed";
+    if (!fs::exists("/usr/bin/exrheader"))
+        GTEST_SKIP() << "exrheader (Debian package openexr) not installed";
     TempDir dir;
     write_spectral_exr(dir / "a.spectral.exr", analytic_spectral());
-    const test::ProcessResult r = test::run_process({"/usr/bin/exrheader", (dir / "a.spectral.exr").string()});
+    const test::ProcessResult r =
+        test::run_process({"/usr/bin/exrheader", (dir / "a.spectral.exr").string()});
     EXPECT_EQ(r.status, 0) << r.err;
-    EXPECT_NE(r.out.find("spectralLayoutVersion (type string): \"1.0\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("spectralLayoutVersion (type string): \"1.0\""), std::string::npos)
+        << r.out;
     EXPECT_NE(r.out.find("T.550,000000nm, 32-bit floating-point"), std::string::npos) << r.out;
 }
 
@@ -104,7 +109,8 @@ TEST(SpectralExr, RoundTripIsExactAndRestoresNoData) {
     EXPECT_EQ(r.generator, t.generator);
     for (std::size_t j = 0; j < 4; ++j)
         for (std::size_t cell = 0; cell < cells; ++cell)
-            ASSERT_EQ(r.planes[j][cell], cell_below_horizon(cell) ? SpectralTable::no_data : t.planes[j][cell])
+            ASSERT_EQ(r.planes[j][cell],
+                      cell_below_horizon(cell) ? SpectralTable::no_data : t.planes[j][cell])
                 << describe_cell(cell);
 }
 
@@ -115,7 +121,8 @@ TEST(SpectralExr, ToRgbWithWeights) {
     const BrdfTable rgb = spectral_to_rgb(t, weights);
     const std::size_t cell = cell_index(30, 20, 10);
     EXPECT_EQ(rgb.channels[0][cell], double(t.planes[0][cell]));
-    EXPECT_EQ(rgb.channels[1][cell], std::max(0.0, double(t.planes[1][cell]) - double(t.planes[2][cell])));
+    EXPECT_EQ(rgb.channels[1][cell],
+              std::max(0.0, double(t.planes[1][cell]) - double(t.planes[2][cell])));
     EXPECT_EQ(rgb.channels[2][cell], double(t.planes[2][cell]));
     EXPECT_EQ(rgb.spec, t.spec);
     EXPECT_EQ(rgb.data_cells(), cells - 361784);
@@ -123,7 +130,8 @@ TEST(SpectralExr, ToRgbWithWeights) {
 }
 
 void write_raw(const fs::path& p, const std::vector<std::string>& channels,
-               const std::vector<std::pair<std::string, std::string>>& attributes, float value = 0.0f) {
+               const std::vector<std::pair<std::string, std::string>>& attributes,
+               float value = 0.0f) {
     Imf::Header header(exr_width, exr_height);
     for (const auto& [k, v] : attributes) header.insert(k, Imf::StringAttribute(v));
     std::vector<float> plane(cells, value);
@@ -140,8 +148,8 @@ void write_raw(const fs::path& p, const std::vector<std::string>& channels,
 
 TEST(SpectralExr, RefusalsNameTheFault) {
     TempDir dir;
-    const std::vector<std::pair<std::string, std::string>> ok{
-        {"brdf.layout", exr_layout}, {"spectralLayoutVersion", "1.0"}};
+    const std::vector<std::pair<std::string, std::string>> ok{{"brdf.layout", exr_layout},
+                                                              {"spectralLayoutVersion", "1.0"}};
     const auto message = [&](const std::vector<std::string>& channels,
                              const std::vector<std::pair<std::string, std::string>>& attributes,
                              float value = 0.0f) {
@@ -187,7 +195,8 @@ TEST(SpectralExr, WriterRefusesBadTables) {
     EXPECT_TRUE(fs::is_empty(dir.path()));
 }
 
-// --- Detection by content ----------------------------------------------------------------------------
+// --- Detection by content
+// ----------------------------------------------------------------------------
 
 TEST(TableDetection, MagicBytesDecideAndTheExtensionOnlyWarns) {
     TempDir dir;
@@ -213,7 +222,8 @@ TEST(TableDetection, MagicBytesDecideAndTheExtensionOnlyWarns) {
     test::write_file(dir / "short.binary", test::merl_truncated(1200));
     EXPECT_EQ(detect_format(dir / "short.binary"), TableFormat::Merl);
     EXPECT_THROW_MESSAGE(read_table(dir / "short.binary"), FormatError,
-                         (dir / "short.binary").string() + ": truncated (34992012 bytes expected, 1200 found)");
+                         (dir / "short.binary").string() +
+                             ": truncated (34992012 bytes expected, 1200 found)");
     test::write_file(dir / "x.txt", "");
     EXPECT_THROW(detect_format(dir / "x.txt"), InputError);
     EXPECT_THROW(detect_format(dir / "missing.binary"), IoError);

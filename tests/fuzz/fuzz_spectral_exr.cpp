@@ -1,5 +1,6 @@
-// libFuzzer target: arbitrary bytes -> brdf::fuzz::spectral_exr (entry_points.h). A brdf::Error is the
-// expected answer to malformed input; any other exception, crash, leak or sanitizer report is a bug.
+// libFuzzer target: arbitrary bytes -> brdf::fuzz::spectral_exr (entry_points.h). A brdf::Error is
+// the expected answer to malformed input; any other exception, crash, leak or sanitizer report is a
+// bug.
 #include "entry_points.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

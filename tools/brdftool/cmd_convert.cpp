@@ -102,7 +102,7 @@ int run_convert(const ConvertFlags& f) {
             cat(out.string(), ": convert: the output is a directory, not a file name"));
 
     const formats::TableFormat from = formats::detect_format(in); // by content; IoError, InputError
-    const formats::BrdfTable table = formats::read_table(in, spectral_to_rgb());
+    const formats::BrdfTable table = formats::read_table(in, from, spectral_to_rgb());
     log_provenance(table, from, to, in, out);
     formats::write_table(out, table);
     log::info("convert: wrote ", out.string(), " (", formats::to_string(to), ", ",

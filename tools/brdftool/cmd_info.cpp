@@ -150,7 +150,7 @@ int run_info(const InfoFlags& f) {
     std::optional<formats::SpectralTable> spectral;
     if (format == formats::TableFormat::SpectralExr) spectral = formats::read_spectral_exr(path);
     const formats::BrdfTable table = spectral ? spectral_to_rgb()(*spectral)
-                                              : formats::read_table(path); // IoError / FormatError
+                                              : formats::read_table(path, format); // IoError / FormatError
 
     const formats::TableStats stats = formats::table_stats(table);
     // Cells above the horizon without data: 0 for computed tables, the unmeasured cells of MERL's

@@ -28,10 +28,11 @@ Source load_source(const std::filesystem::path& path, const std::string& materia
     Source s;
     if (!is_spec_file(path)) {
         if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
-        if (formats::detect_format(path) == formats::TableFormat::Fourier)
+        const formats::TableFormat format = formats::detect_format(path);
+        if (format == formats::TableFormat::Fourier)
             s.fourier = formats::read_fourier_bsdf(path);
         else
-            s.table = formats::read_table(path, spectral_to_rgb());
+            s.table = formats::read_table(path, format, spectral_to_rgb());
         return s;
     }
     std::vector<material::MaterialSpec> specs = material::load_specs(path);
