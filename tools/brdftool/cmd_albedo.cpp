@@ -27,7 +27,7 @@ int run_albedo(const AlbedoFlags& f) {
     const bool mirror = source.model && source.model->spec.surface == material::Surface::Smooth;
     for (double deg : f.theta_i) {
         const double t = deg * std::numbers::pi / 180.0;
-        const service::Rgb a = source.model ? source.model->albedo(t) : formats::directional_albedo(*source.table, t);
+        const service::Rgb a = source.albedo(t);
         std::printf("%.9g %.9g %.9g\n", a[0], a[1], a[2]);
         if (mirror) {
             const service::Rgb m = source.model->mirror(t);

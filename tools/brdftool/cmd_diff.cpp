@@ -34,7 +34,8 @@
 
 namespace brdf::tool {
 
-/// One operand of `diff` as a table: a table file by its extension (formats::read_table). A
+/// One operand of `diff` as a table: a table file of any format (formats::read_table: recognised by
+/// content; a Fourier BSDF evaluated at the cell centres, a spectral one as RGB). A
 /// material spec (.json) is refused for now (InputError naming the path). Throws what read_table
 /// throws: InputError for an unknown extension, IoError / FormatError for a bad file.
 formats::BrdfTable load_operand(const std::filesystem::path& path, const std::string& material,
@@ -154,7 +155,7 @@ int run_diff(const DiffFlags& f) {
 
 formats::BrdfTable load_operand(const std::filesystem::path& path, const std::string& material,
                                 service::Device device) {
-    if (lower_extension(path) != ".json") return formats::read_table(path);
+    if (lower_extension(path) != ".json") return formats::read_table(path, spectral_to_rgb());
     const Source source = load_source(path, material, device);
     return service::fill_table(service::prepare_fill(*source.model), device);
 }

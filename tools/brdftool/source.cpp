@@ -3,6 +3,8 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/material/spec.h>
+#include <brdf/material/spectrum.h>
+#include <formats/exr/spectral_exr.h>
 #include <formats/table_io.h>
 
 #include <algorithm>
@@ -26,7 +28,11 @@ Source load_source(const std::filesystem::path& path, const std::string& materia
     Source s;
     if (!is_spec_file(path)) {
         if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
-        s.table = formats::read_table(path);
+        const formats::TableFormat format = formats::detect_format(path);
+        if (format == formats::TableFormat::Fourier)
+            s.fourier = formats::read_fourier_bsdf(path);
+        else
+            s.table = formats::read_table(path, format, spectral_to_rgb());
         return s;
     }
     std::vector<material::MaterialSpec> specs = material::load_specs(path);
@@ -50,7 +56,24 @@ Source load_source(const std::filesystem::path& path, const std::string& materia
 
 service::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {
     if (model) return model->brdf(theta_i, theta_o, phi);
+    if (fourier) return formats::evaluate(*fourier, theta_i, theta_o, phi);
     return formats::lookup(*table, theta_i, theta_o, phi);
+}
+
+service::Rgb Source::albedo(double theta_i) const {
+    if (model) return model->albedo(theta_i);
+    if (fourier)
+        return formats::directional_albedo(
+            [&](double theta_o, double phi) { return formats::evaluate(*fourier, theta_i, theta_o, phi); },
+            theta_i);
+    return formats::directional_albedo(*table, theta_i);
+}
+
+formats::SpectralToRgb spectral_to_rgb() {
+    return [](const formats::SpectralTable& spectral) {
+        const material::SpectralSet set = material::SpectralSet::integrating(spectral.wavelengths_nm);
+        return formats::spectral_to_rgb(spectral, set.rgb_weights(), formats::default_colorspace);
+    };
 }
 
 } // namespace brdf::tool

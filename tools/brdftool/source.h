@@ -1,9 +1,13 @@
 #pragma once
 // What eval, albedo and diff read: a material spec (solved on the spot, evaluated exactly at the
-// requested angles) or a table file (.binary, .exr; evaluated by nearest-bin lookup).
+// requested angles), a pbrt-v3 Fourier BSDF (.bsdf; evaluated as pbrt-v3 does, formats::evaluate)
+// or a table file (.binary, .exr, spectral .exr as RGB; evaluated by nearest-bin lookup). Files are
+// recognised by content (formats::detect_format).
 
 #include <brdf/service/model.h>
+#include <formats/fourier/fourier.h>
 #include <formats/table.h>
+#include <formats/table_io.h>
 
 #include <CLI/CLI.hpp>
 
@@ -22,11 +26,19 @@ struct DeviceFlag {
 
 struct Source {
     std::optional<service::SolvedMaterial> model;
+    std::optional<formats::FourierBsdf> fourier;
     std::optional<formats::BrdfTable> table;
 
     /// BRDF (1/sr) at angles in radians.
     service::Rgb brdf(double theta_i, double theta_o, double phi) const;
+    /// Directional-hemispherical reflectance at theta_i (radians): the model's, the Fourier BSDF's
+    /// by formats::directional_albedo's quadrature of evaluate, or the table's by lookup.
+    service::Rgb albedo(double theta_i) const;
 };
+
+/// RGB of a spectral table: the CIE 1931 / D65 weights of material::SpectralSet::integrating for
+/// its wavelengths, linear Rec.709 (formats::read_table's converter).
+formats::SpectralToRgb spectral_to_rgb();
 
 /// A spec file (.json: the material named `material`, or its only one) or a table file.
 Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device);
