@@ -289,6 +289,43 @@ TEST(SpecGood, HashDiffersForDifferentContent) {
     EXPECT_NE(parse_specs(changed, "x")[0].hash, h);
 }
 
+// The hashes every checked-in spec had before the spec format grew films, stacks, rough surfaces,
+// colour spaces and new outputs (and before spec.cpp was split): a spec that does not use the new
+// keys must keep its resolved JSON byte for byte, or every table computed from it would be redone
+// (compute skips a material whose report carries the same spec hash). The hash is FNV-1a of
+// resolved.dump(), so it pins the resolved JSON too.
+TEST(SpecGood, HashesOfCheckedInSpecsArePinned) {
+    const std::vector<std::pair<std::string, std::vector<std::string>>> pinned = {
+        {"examples/catalogue.json",
+         {"7d8e9b2438246122", "9bfe6a1413f737d1", "43426795aa9f24f7", "b555a77bc3bf00b5",
+          "7c4fd50514e982d7", "9dc46c52f3f748d8", "d15500fe100fcd15", "0f2f0e92551f26b2"}},
+        {"tests/data/specs/good/catalogue_defaults.json",
+         {"e0e035345e16b196", "1cffaf55a2ca4911", "f710615ae2587d3d"}},
+        {"tests/data/specs/good/design_example.json",
+         {"53bd56fecc5e79d0"}},
+        {"tests/data/specs/good/design_example_minimal.json",
+         {"53bd56fecc5e79d0"}},
+        {"tests/data/specs/good/design_example_reordered.json",
+         {"53bd56fecc5e79d0"}},
+        {"tests/data/specs/good/distributions.json",
+         {"87ba131c3bb9a856", "53cd83806afd6e46", "375194b3e79d3d3e", "d2a16ad72f413064"}},
+        {"tests/data/specs/good/explicit_wavelengths.json",
+         {"c928ede2e55d9cba"}},
+        {"tests/data/specs/good/media.json",
+         {"59c6968202bbc4d4", "beb14ecc4fd20509", "dd532c9c5369b542", "4e3a4f87e530ce2f",
+          "231d7726488cc9a2"}},
+        {"tests/data/specs/good/paint_catalogue.json",
+         {"46fa2f1c5d13d905", "2c3175c39efbedf5", "1cbd3c6332598f61", "010fa687f2bc429d",
+          "9b49437cb7122de7", "710758727435cf22", "be25851460941ce2", "855e82618784dc32"}},
+    };
+    for (const auto& [file, hashes] : pinned) {
+        const auto specs = load_specs(test::source_dir() / file);
+        std::vector<std::string> got;
+        for (const MaterialSpec& s : specs) got.push_back(s.hash);
+        EXPECT_EQ(got, hashes) << file;
+    }
+}
+
 TEST(SpecGood, Fnv1aKnownValues) {
     // FNV-1a 64 test vectors (Fowler, Noll, Vo; http://www.isthe.com/chongo/tech/comp/fnv/).
     EXPECT_EQ(fnv1a64_hex(""), "cbf29ce484222325");
