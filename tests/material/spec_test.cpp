@@ -60,18 +60,18 @@ TEST(SpecGood, DesignExampleResolves) {
     const MaterialSpec& s = specs[0];
     EXPECT_EQ(s.name, "seed-tio2-white");
     EXPECT_EQ(s.source, good("design_example.json").string());
-    ASSERT_TRUE(s.binder.has_value());
-    EXPECT_EQ(s.binder->index.id, "pmma");
-    EXPECT_EQ(s.binder->index.describe(), "pmma");
-    EXPECT_EQ(s.binder->absorption_per_mm, 0.0);
-    ASSERT_EQ(s.pigments.size(), 1u);
-    EXPECT_EQ(s.pigments[0].index.id, "tio2-rutile");
-    EXPECT_EQ(s.pigments[0].volume_fraction, 0.1);
-    EXPECT_EQ(s.pigments[0].size.kind(), mie::DistributionKind::PowerLaw);
-    EXPECT_EQ(s.pigments[0].size.r_eff_um(), 0.4);
-    EXPECT_EQ(s.pigments[0].size.v_eff(), 0.3);
-    EXPECT_FALSE(s.medium.has_value());
-    EXPECT_EQ(s.surface, Surface::Smooth);
+    ASSERT_TRUE(s.layers[0].binder.has_value());
+    EXPECT_EQ(s.layers[0].binder->index.id, "pmma");
+    EXPECT_EQ(s.layers[0].binder->index.describe(), "pmma");
+    EXPECT_EQ(s.layers[0].binder->absorption_per_mm, 0.0);
+    ASSERT_EQ(s.layers[0].pigments.size(), 1u);
+    EXPECT_EQ(s.layers[0].pigments[0].index.id, "tio2-rutile");
+    EXPECT_EQ(s.layers[0].pigments[0].volume_fraction, 0.1);
+    EXPECT_EQ(s.layers[0].pigments[0].size.kind(), mie::DistributionKind::PowerLaw);
+    EXPECT_EQ(s.layers[0].pigments[0].size.r_eff_um(), 0.4);
+    EXPECT_EQ(s.layers[0].pigments[0].size.v_eff(), 0.3);
+    EXPECT_FALSE(s.layers[0].medium.has_value());
+    EXPECT_EQ(s.surface.kind, Surface::Smooth);
     EXPECT_EQ(s.spectrum.kind(), SpectralSet::Kind::Visible);
     EXPECT_EQ(s.spectrum.size(), 41u);
     EXPECT_EQ(s.accuracy.level, "default");
@@ -80,8 +80,8 @@ TEST(SpecGood, DesignExampleResolves) {
     EXPECT_EQ(s.hash.size(), 16u);
     EXPECT_EQ(s.hash.find_first_not_of("0123456789abcdef"), std::string::npos);
     // The models are ready to evaluate at the spec's wavelengths.
-    EXPECT_GT(s.pigments[0].index.model.at(550.0).n, 2.5);
-    EXPECT_NEAR(s.binder->index.model.at(550.0).n, 1.49, 0.01);
+    EXPECT_GT(s.layers[0].pigments[0].index.model.at(550.0).n, 2.5);
+    EXPECT_NEAR(s.layers[0].binder->index.model.at(550.0).n, 1.49, 0.01);
 }
 
 TEST(SpecGood, EveryDistribution) {
@@ -90,30 +90,30 @@ TEST(SpecGood, EveryDistribution) {
     EXPECT_EQ(specs[0].source, good("distributions.json").string() + ": materials[0]");
     EXPECT_EQ(specs[3].source, good("distributions.json").string() + ": materials[3]");
 
-    const auto& mono = specs[0].pigments.at(0);
+    const auto& mono = specs[0].layers[0].pigments.at(0);
     EXPECT_EQ(mono.size.kind(), mie::DistributionKind::Monodisperse);
     EXPECT_EQ(mono.size.r_min_um(), 0.25);
     EXPECT_EQ(mono.index.id, "silica");
 
-    const auto& power = specs[1].pigments.at(0);
+    const auto& power = specs[1].layers[0].pigments.at(0);
     EXPECT_EQ(power.size.kind(), mie::DistributionKind::PowerLaw);
     EXPECT_EQ(power.size.parameter1(), 0.4);
     EXPECT_EQ(power.size.parameter2(), 0.3);
 
-    const auto& gamma = specs[2].pigments.at(0);
+    const auto& gamma = specs[2].layers[0].pigments.at(0);
     EXPECT_EQ(gamma.size.kind(), mie::DistributionKind::Gamma);
     EXPECT_EQ(gamma.size.r_eff_um(), 0.3);
     EXPECT_EQ(gamma.size.v_eff(), 0.1);
     EXPECT_EQ(gamma.volume_fraction, 0.2);
-    EXPECT_EQ(specs[2].binder->index.id, "polystyrene");
+    EXPECT_EQ(specs[2].layers[0].binder->index.id, "polystyrene");
 
-    const auto& logn = specs[3].pigments.at(0);
+    const auto& logn = specs[3].layers[0].pigments.at(0);
     EXPECT_EQ(logn.size.kind(), mie::DistributionKind::Lognormal);
     EXPECT_EQ(logn.size.parameter1(), 0.15);
     EXPECT_EQ(logn.size.parameter2(), 1.5);
-    EXPECT_EQ(specs[3].binder->index.id, "");
-    EXPECT_EQ(specs[3].binder->index.describe(), "1.5");
-    EXPECT_EQ(specs[3].binder->index.model.at(600.0).n, 1.5);
+    EXPECT_EQ(specs[3].layers[0].binder->index.id, "");
+    EXPECT_EQ(specs[3].layers[0].binder->index.describe(), "1.5");
+    EXPECT_EQ(specs[3].layers[0].binder->index.model.at(600.0).n, 1.5);
     EXPECT_EQ(specs[3].resolved["pigments"][0]["size"],
               (nlohmann::json{{"distribution", "lognormal"}, {"r_g_um", 0.15}, {"sigma_g", 1.5}}));
 }
@@ -122,54 +122,54 @@ TEST(SpecGood, AnalyticMediaOfEachPhaseType) {
     const auto specs = load_specs(good("media.json"));
     ASSERT_EQ(specs.size(), 5u);
     for (const auto& s : specs) {
-        ASSERT_TRUE(s.medium.has_value()) << s.name;
-        EXPECT_FALSE(s.binder.has_value());
-        EXPECT_TRUE(s.pigments.empty());
+        ASSERT_TRUE(s.layers[0].medium.has_value()) << s.name;
+        EXPECT_FALSE(s.layers[0].binder.has_value());
+        EXPECT_TRUE(s.layers[0].pigments.empty());
     }
-    const MediumSpec& iso = *specs[0].medium;
+    const MediumSpec& iso = *specs[0].layers[0].medium;
     EXPECT_EQ(iso.phase, PhaseType::Isotropic);
     EXPECT_TRUE(iso.grey);
     EXPECT_EQ(iso.albedo, (std::array<double, 3>{0.9, 0.9, 0.9}));
     EXPECT_EQ(iso.g, 0.0);
-    EXPECT_EQ(specs[0].surface, Surface::None); // the default for an analytic medium
+    EXPECT_EQ(specs[0].surface.kind, Surface::None); // the default for an analytic medium
     EXPECT_EQ(specs[0].resolved["medium"]["phase"], (nlohmann::json{{"type", "isotropic"}}));
 
-    const MediumSpec& ray = *specs[1].medium;
+    const MediumSpec& ray = *specs[1].layers[0].medium;
     EXPECT_EQ(ray.phase, PhaseType::Rayleigh);
     EXPECT_FALSE(ray.grey);
     EXPECT_EQ(ray.albedo, (std::array<double, 3>{0.9, 0.8, 0.7}));
 
-    const MediumSpec& hg = *specs[2].medium;
+    const MediumSpec& hg = *specs[2].layers[0].medium;
     EXPECT_EQ(hg.phase, PhaseType::HenyeyGreenstein);
     EXPECT_EQ(hg.g, 0.5);
     EXPECT_TRUE(hg.coefficients.empty());
 
-    const MediumSpec& leg = *specs[3].medium;
+    const MediumSpec& leg = *specs[3].layers[0].medium;
     EXPECT_EQ(leg.phase, PhaseType::Legendre);
     EXPECT_EQ(leg.coefficients, (std::vector<double>{1.0, 1.5, 0.5}));
     EXPECT_DOUBLE_EQ(leg.g, 0.5);
     EXPECT_EQ(leg.albedo[0], 1.0);
 
-    EXPECT_EQ(specs[4].surface, Surface::Smooth);
-    ASSERT_TRUE(specs[4].medium->index.has_value());
-    EXPECT_EQ(*specs[4].medium->index, 1.5);
-    EXPECT_EQ(specs[4].medium->g, -0.3);
+    EXPECT_EQ(specs[4].surface.kind, Surface::Smooth);
+    ASSERT_TRUE(specs[4].layers[0].medium->index.has_value());
+    EXPECT_EQ(*specs[4].layers[0].medium->index, 1.5);
+    EXPECT_EQ(specs[4].layers[0].medium->g, -0.3);
 }
 
 TEST(SpecGood, CatalogueDefaultsAreMergedAndOwnKeysWin) {
     const auto specs = load_specs(good("catalogue_defaults.json"));
     ASSERT_EQ(specs.size(), 3u);
     const MaterialSpec& white = specs[0];
-    EXPECT_EQ(white.binder->index.id, "pmma");
-    EXPECT_EQ(white.binder->absorption_per_mm, 0.01);
+    EXPECT_EQ(white.layers[0].binder->index.id, "pmma");
+    EXPECT_EQ(white.layers[0].binder->absorption_per_mm, 0.01);
     EXPECT_EQ(white.spectrum.kind(), SpectralSet::Kind::RgbWavelengths);
     EXPECT_EQ(white.accuracy.level, "draft");
     EXPECT_EQ(white.accuracy.tolerance, 1e-2);
     EXPECT_EQ(white.outputs, (std::vector<std::string>{"exr"}));
 
     const MaterialSpec& own = specs[1];
-    EXPECT_EQ(own.binder->index.describe(), "1.49"); // the whole binder object is the material's
-    EXPECT_EQ(own.binder->absorption_per_mm, 0.0);
+    EXPECT_EQ(own.layers[0].binder->index.describe(), "1.49"); // the whole binder object is the material's
+    EXPECT_EQ(own.layers[0].binder->absorption_per_mm, 0.0);
     EXPECT_EQ(own.outputs, (std::vector<std::string>{"merl"}));
     EXPECT_EQ(own.accuracy.level, "custom");
     EXPECT_EQ(own.accuracy.tolerance, 1e-3);
@@ -177,10 +177,10 @@ TEST(SpecGood, CatalogueDefaultsAreMergedAndOwnKeysWin) {
 
     // A medium does not inherit the defaults' binder.
     const MaterialSpec& fog = specs[2];
-    EXPECT_TRUE(fog.medium.has_value());
-    EXPECT_FALSE(fog.binder.has_value());
+    EXPECT_TRUE(fog.layers[0].medium.has_value());
+    EXPECT_FALSE(fog.layers[0].binder.has_value());
     EXPECT_FALSE(fog.resolved.contains("binder"));
-    EXPECT_EQ(fog.surface, Surface::None);
+    EXPECT_EQ(fog.surface.kind, Surface::None);
     EXPECT_EQ(fog.spectrum.kind(), SpectralSet::Kind::RgbWavelengths);
 }
 
@@ -192,19 +192,19 @@ TEST(SpecGood, ExplicitWavelengthsConstantIndexAndNkTable) {
     EXPECT_EQ(s.spectrum.kind(), SpectralSet::Kind::Explicit);
     const auto w = s.spectrum.wavelengths_nm();
     EXPECT_EQ(std::vector<double>(w.begin(), w.end()), (std::vector<double>{450.0, 500.5, 650.0}));
-    EXPECT_EQ(s.surface, Surface::None);
+    EXPECT_EQ(s.surface.kind, Surface::None);
     EXPECT_EQ(s.accuracy.tolerance, 1e-6);
-    EXPECT_EQ(s.binder->index.describe(), "1.5");
+    EXPECT_EQ(s.layers[0].binder->index.describe(), "1.5");
 
-    ASSERT_EQ(s.pigments.size(), 2u);
-    const IndexSpec& table = s.pigments[0].index;
+    ASSERT_EQ(s.layers[0].pigments.size(), 2u);
+    const IndexSpec& table = s.layers[0].pigments[0].index;
     EXPECT_EQ(table.id, "");
     EXPECT_EQ(table.nk.size(), 3u);
     EXPECT_EQ(table.describe(), "nk table (3 rows)");
     EXPECT_NEAR(table.model.at(475.0).n, 2.8, 1e-12); // linear between (400, 2.9) and (550, 2.7)
     EXPECT_NEAR(table.model.at(475.0).k, 0.015, 1e-12);
 
-    const IndexSpec& constant = s.pigments[1].index;
+    const IndexSpec& constant = s.layers[0].pigments[1].index;
     ASSERT_TRUE(constant.constant.has_value());
     EXPECT_EQ(*constant.constant, std::complex<double>(2.0, 0.001));
     EXPECT_EQ(constant.describe(), "2+0.001i");
@@ -231,20 +231,20 @@ TEST(SpecGood, ExampleCatalogueOfPaints) {
                                                 "carbon-black", "matte-powder", "grey-fog"}));
     std::sort(hashes.begin(), hashes.end());
     EXPECT_EQ(std::unique(hashes.begin(), hashes.end()), hashes.end()) << "hashes must differ";
-    EXPECT_EQ(specs[2].pigments.size(), 2u);
-    EXPECT_NEAR(specs[2].pigment_volume_fraction(), 0.15, 1e-15);
-    EXPECT_EQ(specs[3].binder->index.id, "polycarbonate");
-    EXPECT_EQ(specs[0].binder->absorption_per_mm, 0.002);
-    EXPECT_EQ(specs[6].binder->index.id, "air");
-    EXPECT_EQ(specs[6].surface, Surface::None);
-    EXPECT_EQ(specs[7].surface, Surface::None);
-    EXPECT_EQ(specs[7].medium->phase, PhaseType::HenyeyGreenstein);
+    EXPECT_EQ(specs[2].layers[0].pigments.size(), 2u);
+    EXPECT_NEAR(specs[2].layers[0].pigment_volume_fraction(), 0.15, 1e-15);
+    EXPECT_EQ(specs[3].layers[0].binder->index.id, "polycarbonate");
+    EXPECT_EQ(specs[0].layers[0].binder->absorption_per_mm, 0.002);
+    EXPECT_EQ(specs[6].layers[0].binder->index.id, "air");
+    EXPECT_EQ(specs[6].surface.kind, Surface::None);
+    EXPECT_EQ(specs[7].surface.kind, Surface::None);
+    EXPECT_EQ(specs[7].layers[0].medium->phase, PhaseType::HenyeyGreenstein);
 }
 
 TEST(SpecGood, AliasesResolveToCanonicalIds) {
     const auto a = load_specs(good("design_example.json"));
     const auto b = load_specs(good("design_example_minimal.json"));
-    EXPECT_EQ(b[0].binder->index.id, "pmma"); // "acrylic" is an alias
+    EXPECT_EQ(b[0].layers[0].binder->index.id, "pmma"); // "acrylic" is an alias
     EXPECT_EQ(a[0].resolved, b[0].resolved);
     EXPECT_EQ(a[0].hash, b[0].hash);
 }
@@ -339,7 +339,7 @@ TEST(SpecGood, ExtrapolatedIndexIsAWarningNotAnError) {
     bool found = false;
     for (const auto& w : specs[0].warnings)
         if (w.find("pigments[0].material: tio2-rutile") != std::string::npos) found = true;
-    if (!specs[0].pigments[0].index.model.is_extended()) GTEST_SKIP() << "rutile is not extended";
+    if (!specs[0].layers[0].pigments[0].index.model.is_extended()) GTEST_SKIP() << "rutile is not extended";
     EXPECT_TRUE(found) << ::testing::PrintToString(specs[0].warnings);
 }
 
@@ -412,9 +412,10 @@ const BadCase bad_cases[] = {
     {"volume_fraction_sum", {" pigments: volume fractions sum to 1.2, more than 1 (got 0.7 + 0.5)"}},
     {"negative_radius", {" pigments[0].size.r_eff_um: must be > 0 (got -0.2)"}},
     {"monodisperse_zero_radius", {" pigments[0].size.radius_um: must be > 0 (got 0)"}},
-    {"gamma_v_eff", {" pigments[0].size.v_eff: must be in (0, 0.5) for the gamma distribution"}},
-    {"power_law_v_eff", {" pigments[0].size.v_eff: power_law: v_eff must be in [1e-06, 2] (got 3)"}},
-    {"lognormal_sigma_g", {" pigments[0].size.sigma_g: lognormal: sigma_g must be in (1, 3] (got 5)"}},
+    {"gamma_v_eff", {" pigments[0].size.v_eff: must be in [1e-06, 0.5) for the gamma distribution (it is not "
+                     "normalisable at 0.5) (got 0.6)"}},
+    {"power_law_v_eff", {" pigments[0].size.v_eff: must be in [1e-06, 2] (got 3)"}},
+    {"lognormal_sigma_g", {" pigments[0].size.sigma_g: must be in (1, 3] (got 5)"}},
     {"size_key_of_other_distribution",
      {" pigments[0].size.v_eff: not used by the monodisperse distribution (it takes radius_um)"}},
     {"size_missing_key", {" pigments[0].size.v_eff: missing (the gamma distribution takes"}},
@@ -428,7 +429,9 @@ const BadCase bad_cases[] = {
     {"legendre_beta0", {" medium.phase.coefficients[0]: beta_0 must be 1"}},
     {"legendre_bound", {" medium.phase.coefficients[2]: must satisfy |beta_2| <= 5"}},
     {"phase_key_of_other_type", {" medium.phase.g: not used by the isotropic phase function"}},
-    {"bad_surface", {" surface: must be \"none\" or \"smooth\" (got \"glossy\")"}},
+    {"bad_surface",
+     {" surface: must be \"none\", \"smooth\", \"gloss\", \"satin\", \"matte\" or {\"roughness\": "
+      "alpha} (did you mean \"gloss\"?) (got \"glossy\")"}},
     {"smooth_medium_without_index", {" medium.index: missing (\"surface\": \"smooth\""}},
     {"bad_spectrum", {" spectrum: must be \"visible\", \"rgb\" or {\"wavelengths_nm\": [...]} "
                       "(did you mean \"visible\"?)"}},
@@ -438,7 +441,8 @@ const BadCase bad_cases[] = {
      {" pigments[0].material: wavelength 1000 nm is outside the data of tio2-anatase"}},
     {"bad_accuracy", {" accuracy.tolerance: must be in [1e-8, 0.5]"}},
     {"bad_accuracy_name", {" accuracy: must be \"draft\", \"default\", \"reference\""}},
-    {"bad_outputs", {" outputs[1]: must be \"merl\" or \"exr\" (got \"png\")"}},
+    {"bad_outputs",
+     {" outputs[1]: must be one of merl, exr, fourier, rgl, spectral_exr (got \"png\")"}},
     {"defaults_fault", {" defaults.spectrum: must be \"visible\", \"rgb\""}},
     {"not_an_object", {" expected a JSON object"}},
     {"nan", {"nan.json:3:24: invalid JSON: ", "JSON has no NaN or Infinity"}},
@@ -447,7 +451,8 @@ const BadCase bad_cases[] = {
     {"three_faults",
      {" materials[1].name: must be 1 to 100 characters",
       " materials[1].pigments[0].size.r_eff_um: must be > 0 (got -0.2)",
-      " materials[1].surface: must be \"none\" or \"smooth\" (got \"glossy\")"}},
+      " materials[1].surface: must be \"none\", \"smooth\", \"gloss\", \"satin\", \"matte\" or "
+      "{\"roughness\": alpha} (did you mean \"gloss\"?) (got \"glossy\")"}},
 };
 
 INSTANTIATE_TEST_SUITE_P(Files, SpecBad, ::testing::ValuesIn(bad_cases),
@@ -693,7 +698,7 @@ TEST(SpecLimits, LimitsAndInputFaultsTogetherAreOneInputError) {
     nlohmann::json doc = hg_medium(1e-9);
     doc["surface"] = "glossy";
     const std::string message = input_error(doc);
-    EXPECT_NE(message.find("doc.json: surface: must be \"none\" or \"smooth\""),
+    EXPECT_NE(message.find("doc.json: surface: must be \"none\", \"smooth\", \"gloss\""),
               std::string::npos);
     EXPECT_NE(message.find("doc.json: accuracy.tolerance: 1e-09 is below the limit"),
               std::string::npos);

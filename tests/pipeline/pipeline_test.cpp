@@ -151,7 +151,7 @@ namespace {
 TEST(PipelineSpectral, SelectedWavelengthsMeetTheTolerance) {
     const auto specs = material::load_specs(source_dir() / "examples/catalogue.json");
     for (const auto& spec : specs) {
-        if (spec.medium) continue;
+        if (spec.layers[0].medium) continue;
         service::Settings all = service::settings_for(spec.accuracy.tolerance);
         all.select_wavelengths = false;
         const auto full = service::solve_material(spec, service::Device::Cpu, all);
