@@ -18,6 +18,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <system_error>
 
 namespace brdf::material {
@@ -176,7 +177,11 @@ std::optional<MaterialSpec> MaterialParser::parse() {
     }
 
     if (c.failures() != failures_before) return std::nullopt;
-    for (std::optional<LayerSpec>& layer : m_layers) spec.layers.push_back(std::move(*layer));
+    for (std::optional<LayerSpec>& layer : m_layers) {
+        // Every part that fails reports a problem, so here every layer parsed.
+        if (!layer) throw std::logic_error("spec parser: a layer failed without a problem");
+        spec.layers.push_back(std::move(*layer));
+    }
     spec.limits = m_limits;
     spec.resolved = std::move(resolved);
     spec.hash = fnv1a64_hex(spec.resolved.dump());

@@ -62,6 +62,10 @@ class Checker {
     void fail_limit(const std::string& path, const std::string& message);
     bool only_limits() const { return !m_problems.empty() && m_limit_problems == m_problems.size(); }
 
+    /// Whether an unknown key was reported as a likely typo of the key at `path` (that key is then
+    /// not reported missing, nor faults that only follow from its absence).
+    bool suggested(const std::string& path) const { return m_suggested.count(path) != 0; }
+
     /// An unknown key, with a suggestion when it is a likely typo.
     void unknown_key(const std::string& path, std::string_view key,
                      const std::vector<std::string_view>& known, std::string_view note = {});

@@ -161,29 +161,29 @@ std::optional<LayerSpec> MaterialParser::parse_layer(const json& holder, const L
                      "a layer is \"binder\" + \"pigments\" + \"thickness_um\", or \"medium\" with "
                      "its \"optical_depth\" inside");
     const bool has_binder = holder.contains("binder"), has_pigments = holder.contains("pigments");
-    const bool has_medium = holder.contains("medium"), has_thickness = holder.contains("thickness_um");
+    const bool has_medium = holder.contains("medium");
+    const bool has_thickness = holder.contains("thickness_um");
     const char* what = in_stack ? "layer" : "material";
     if ((has_binder || has_pigments) && has_medium) {
-        c.fail(paths.medium, cat("cannot be combined with ", has_binder ? "\"binder\"" : "\"pigments\"",
-                                 ": a ", what, " is either particulate (binder + pigments) or an "
-                                 "analytic medium"));
+        c.fail(paths.medium,
+               cat("cannot be combined with ", has_binder ? "\"binder\"" : "\"pigments\"", ": a ",
+                   what, " is either particulate (binder + pigments) or an analytic medium"));
         return std::nullopt;
     }
     if (!has_binder && !has_pigments && !has_medium) {
-        c.fail(paths.base, in_stack ? "needs either \"binder\" + \"pigments\" (a particulate layer; "
-                                      "a clear film needs no pigments) or \"medium\" (an analytic "
-                                      "medium)"
-                                    : "needs either \"binder\" + \"pigments\" (a particulate "
-                                      "material) or \"medium\" (an analytic medium), or \"layers\" "
-                                      "(a stack of them)");
+        c.fail(paths.base,
+               in_stack ? "needs either \"binder\" + \"pigments\" (a particulate layer; a clear "
+                          "film needs no pigments) or \"medium\" (an analytic medium)"
+                        : "needs either \"binder\" + \"pigments\" (a particulate material) or "
+                          "\"medium\" (an analytic medium), or \"layers\" (a stack of them)");
         return std::nullopt;
     }
     LayerSpec layer;
     bool ok = true;
     if (has_medium) {
         if (has_thickness) {
-            c.fail(paths.thickness, "not used by an analytic medium (give its optical depth instead: "
-                                    "\"medium\": {..., \"optical_depth\": tau})");
+            c.fail(paths.thickness, "not used by an analytic medium (give its optical depth "
+                                    "instead: \"medium\": {..., \"optical_depth\": tau})");
             ok = false;
         }
         json r;
@@ -213,8 +213,10 @@ std::optional<LayerSpec> MaterialParser::parse_layer(const json& holder, const L
         ok = false;
     }
     if (!has_pigments && !has_thickness) {
-        c.fail(paths.pigments, cat("missing (a particulate ", what, " needs at least one pigment; "
-                                   "a clear binder layer needs \"thickness_um\")"));
+        // A misspelt "thickness_um" is reported as an unknown key already: one mistake, one line.
+        if (!c.suggested(paths.thickness))
+            c.fail(paths.pigments, cat("missing (a particulate ", what, " needs at least one "
+                                       "pigment; a clear binder layer needs \"thickness_um\")"));
         ok = false;
     }
     if (has_binder) {
@@ -308,9 +310,9 @@ void MaterialParser::parse_layers(MaterialSpec& spec, json& resolved) {
         // A catalogue's default substrate is for its films: a semi-infinite material ignores it
         // (its own faults are still reported).
         if (last_finite == false && !inherited)
-            c.fail(spath, "not allowed under a semi-infinite layer (nothing lies under it; give the "
-                          "last layer \"thickness_um\", or \"optical_depth\" in its medium, to "
-                          "make it a film)");
+            c.fail(spath, "not allowed under a semi-infinite layer (nothing lies under it; give "
+                          "the last layer \"thickness_um\", or \"optical_depth\" in its medium, "
+                          "to make it a film)");
         else {
             json r;
             parse_substrate(obj["substrate"], spath, r);

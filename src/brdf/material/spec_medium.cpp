@@ -125,7 +125,8 @@ bool MaterialParser::parse_phase(const json& p, const std::string& ppath, Medium
         if (!p.contains("coefficients")) {
             c.fail(cpath, "missing (the Legendre coefficients beta_l, beta_0 = 1)");
             cok = false;
-        } else if (!c.array(p["coefficients"], cpath, "of Legendre coefficients [1, beta_1, ...]")) {
+        } else if (!c.array(p["coefficients"], cpath,
+                            "of Legendre coefficients [1, beta_1, ...]")) {
             cok = false;
         } else {
             const json& cs = p["coefficients"];

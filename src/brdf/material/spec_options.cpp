@@ -58,8 +58,8 @@ std::optional<SurfaceSpec> MaterialParser::parse_surface_value(const json& v,
         return s;
     }
     if (!v.is_object()) {
-        c.fail(path, cat("expected \"none\", \"smooth\", a finish (\"gloss\", \"satin\", \"matte\") "
-                         "or {\"roughness\": alpha}, got ",
+        c.fail(path, cat("expected \"none\", \"smooth\", a finish (\"gloss\", \"satin\", "
+                         "\"matte\") or {\"roughness\": alpha}, got ",
                          type_name(v), " (got ", show(v), ")"));
         return std::nullopt;
     }
@@ -217,8 +217,9 @@ std::optional<AccuracySpec> MaterialParser::parse_accuracy(const json& v, const 
     static const std::pair<std::string_view, double> levels[] = {
         {"draft", 1e-2}, {"default", 1e-4}, {"reference", 1e-6}};
     if (v.is_string()) {
-        const auto which = c.one_of(v.get<std::string>(), v, path, {"draft", "default", "reference"},
-                                    "\"draft\", \"default\", \"reference\" or {\"tolerance\": t}");
+        const auto which =
+            c.one_of(v.get<std::string>(), v, path, {"draft", "default", "reference"},
+                     "\"draft\", \"default\", \"reference\" or {\"tolerance\": t}");
         if (!which) return std::nullopt;
         const auto& [level, tolerance] = levels[*which];
         resolved = level;

@@ -1,7 +1,7 @@
 #pragma once
-// Internal to the spec parser: MaterialParser turns one material object (catalogue defaults already
-// merged) into a MaterialSpec and its resolved JSON, reporting every problem to a Checker. Its parts
-// live by what they parse: spec.cpp (the material as a whole, documents), spec_index.cpp
+// Internal to the spec parser: MaterialParser turns one material object (catalogue defaults
+// already merged) into a MaterialSpec and its resolved JSON, reporting every problem to a Checker.
+// Its parts live by what they parse: spec.cpp (the material as a whole, documents), spec_index.cpp
 // (refractive indices), spec_size.cpp (size distributions), spec_medium.cpp (analytic media, phase
 // functions, albedos), spec_layers.cpp (binder, pigments, layers, substrate), spec_options.cpp
 // (surface, spectrum, accuracy, outputs, limits, colorspace, model).
