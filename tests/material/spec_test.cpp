@@ -826,5 +826,546 @@ TEST(SpecModel, BadValuesNameThePath) {
     EXPECT_EQ(line_count(input_error(two)), 2u);
 }
 
+// ------------------------------------------------------------------------------------------------
+// Films, stacks, rough surfaces, colour spaces and the new outputs (docs/spec.md; docs/design.md,
+// "Extensions ... (turn 2)")
+
+nlohmann::json white_layer() {
+    return {{"binder", {{"material", "pmma"}}},
+            {"pigments",
+             {{{"material", "tio2-rutile"},
+               {"volume_fraction", 0.1},
+               {"size", {{"distribution", "power_law"}, {"r_eff_um", 0.4}, {"v_eff", 0.3}}}}}}};
+}
+
+nlohmann::json white(const std::string& name = "w") {
+    nlohmann::json doc = white_layer();
+    doc["name"] = name;
+    return doc;
+}
+
+// parse_specs(resolved) gives the same material: the same resolved JSON and hash, and the same
+// values of every new field.
+void expect_round_trip(const MaterialSpec& s) {
+    const auto again = parse_specs(s.resolved, "resolved.json");
+    ASSERT_EQ(again.size(), 1u) << s.name;
+    const MaterialSpec& r = again[0];
+    EXPECT_EQ(r.resolved, s.resolved) << s.name;
+    EXPECT_EQ(r.hash, s.hash) << s.name;
+    ASSERT_EQ(r.layers.size(), s.layers.size()) << s.name;
+    for (std::size_t k = 0; k < s.layers.size(); ++k) {
+        const LayerSpec &a = s.layers[k], &b = r.layers[k];
+        EXPECT_EQ(a.thickness_um, b.thickness_um) << s.name << " layer " << k;
+        EXPECT_EQ(a.binder.has_value(), b.binder.has_value()) << s.name << " layer " << k;
+        EXPECT_EQ(a.pigments.size(), b.pigments.size()) << s.name << " layer " << k;
+        EXPECT_EQ(a.pigment_volume_fraction(), b.pigment_volume_fraction()) << s.name;
+        ASSERT_EQ(a.medium.has_value(), b.medium.has_value()) << s.name << " layer " << k;
+        if (a.medium) {
+            EXPECT_EQ(a.medium->optical_depth, b.medium->optical_depth) << s.name;
+            EXPECT_EQ(a.medium->index, b.medium->index) << s.name;
+            EXPECT_EQ(a.medium->albedo, b.medium->albedo) << s.name;
+        }
+        EXPECT_EQ(a.semi_infinite(), b.semi_infinite()) << s.name << " layer " << k;
+    }
+    ASSERT_EQ(r.substrate.has_value(), s.substrate.has_value()) << s.name;
+    if (s.substrate) {
+        EXPECT_EQ(r.substrate->albedo, s.substrate->albedo) << s.name;
+        EXPECT_EQ(r.substrate->grey, s.substrate->grey) << s.name;
+    }
+    EXPECT_EQ(r.surface.kind, s.surface.kind) << s.name;
+    EXPECT_EQ(r.surface.roughness, s.surface.roughness) << s.name;
+    EXPECT_EQ(r.surface.distribution, s.surface.distribution) << s.name;
+    EXPECT_EQ(r.surface.finish, s.surface.finish) << s.name;
+    EXPECT_EQ(r.colorspace, s.colorspace) << s.name;
+    EXPECT_EQ(r.outputs, s.outputs) << s.name;
+}
+
+TEST(SpecFilms, ThicknessSubstrateAndOpticalDepth) {
+    const auto specs = load_specs(good("films.json"));
+    ASSERT_EQ(specs.size(), 4u);
+
+    const MaterialSpec& film = specs[0];
+    ASSERT_EQ(film.layers.size(), 1u);
+    EXPECT_EQ(film.layers[0].thickness_um, 25.0);
+    EXPECT_FALSE(film.layers[0].semi_infinite());
+    EXPECT_EQ(film.layers[0].pigments.size(), 1u);
+    EXPECT_DOUBLE_EQ(film.layers[0].pigment_volume_fraction(), 0.1);
+    ASSERT_TRUE(film.substrate.has_value());
+    EXPECT_EQ(film.substrate->albedo, (std::array<double, 3>{0.8, 0.8, 0.8}));
+    EXPECT_TRUE(film.substrate->grey);
+    EXPECT_EQ(film.surface.kind, Surface::Smooth);
+    EXPECT_EQ(film.resolved["thickness_um"], 25.0);
+    EXPECT_EQ(film.resolved["substrate"], (nlohmann::json{{"albedo", 0.8}}));
+    EXPECT_FALSE(film.resolved.contains("layers"));
+
+    // A finite layer without a substrate lies on a black one, written into the resolved spec.
+    const MaterialSpec& on_black = specs[1];
+    ASSERT_TRUE(on_black.substrate.has_value());
+    EXPECT_EQ(on_black.substrate->albedo, (std::array<double, 3>{0.0, 0.0, 0.0}));
+    EXPECT_EQ(on_black.resolved["substrate"], (nlohmann::json{{"albedo", 0.0}}));
+
+    // A clear binder film: no pigments, resolved without the key; a coloured substrate.
+    const MaterialSpec& clear = specs[2];
+    EXPECT_TRUE(clear.layers[0].pigments.empty());
+    EXPECT_EQ(clear.layers[0].pigment_volume_fraction(), 0.0);
+    EXPECT_EQ(clear.layers[0].thickness_um, 5.0);
+    EXPECT_FALSE(clear.resolved.contains("pigments"));
+    EXPECT_EQ(clear.substrate->albedo, (std::array<double, 3>{0.8, 0.7, 0.6}));
+    EXPECT_FALSE(clear.substrate->grey);
+    EXPECT_EQ(clear.resolved["substrate"]["albedo"], (nlohmann::json{0.8, 0.7, 0.6}));
+
+    // An analytic medium of finite optical depth.
+    const MaterialSpec& slab = specs[3];
+    ASSERT_TRUE(slab.layers[0].medium.has_value());
+    EXPECT_EQ(slab.layers[0].medium->optical_depth, 2.0);
+    EXPECT_FALSE(slab.layers[0].thickness_um.has_value());
+    EXPECT_FALSE(slab.layers[0].semi_infinite());
+    EXPECT_EQ(slab.substrate->albedo[1], 0.5);
+    EXPECT_EQ(slab.surface.kind, Surface::None);
+    EXPECT_EQ(slab.resolved["medium"]["optical_depth"], 2.0);
+
+    for (const MaterialSpec& s : specs) expect_round_trip(s);
+}
+
+TEST(SpecFilms, SemiInfiniteLayersHaveNoSubstrate) {
+    const MaterialSpec s = parse_specs(white(), "w.json").at(0);
+    ASSERT_EQ(s.layers.size(), 1u);
+    EXPECT_TRUE(s.layers[0].semi_infinite());
+    EXPECT_FALSE(s.substrate.has_value());
+    EXPECT_FALSE(s.resolved.contains("substrate"));
+    EXPECT_FALSE(s.resolved.contains("thickness_um"));
+}
+
+TEST(SpecFilms, AnExplicitBlackSubstrateIsTheDefault) {
+    nlohmann::json doc = white();
+    doc["thickness_um"] = 10;
+    const std::string implicit = parse_specs(doc, "a.json").at(0).hash;
+    doc["substrate"] = {{"albedo", 0}};
+    EXPECT_EQ(parse_specs(doc, "b.json").at(0).hash, implicit);
+    doc["substrate"] = {{"albedo", 0.5}};
+    EXPECT_NE(parse_specs(doc, "c.json").at(0).hash, implicit);
+    doc.erase("substrate");
+    doc["thickness_um"] = 11;
+    EXPECT_NE(parse_specs(doc, "d.json").at(0).hash, implicit);
+}
+
+TEST(SpecStacks, LayersTopFirst) {
+    const auto specs = load_specs(good("stacks.json"));
+    ASSERT_EQ(specs.size(), 3u);
+
+    const MaterialSpec& coat = specs[0];
+    ASSERT_EQ(coat.layers.size(), 2u);
+    EXPECT_TRUE(coat.layers[0].pigments.empty()); // the clear coat on top
+    EXPECT_EQ(coat.layers[0].thickness_um, 20.0);
+    EXPECT_EQ(coat.layers[1].pigments.size(), 1u);
+    EXPECT_TRUE(coat.layers[1].semi_infinite());
+    EXPECT_FALSE(coat.substrate.has_value());
+    EXPECT_EQ(coat.surface.kind, Surface::Rough);
+    EXPECT_EQ(coat.surface.finish, "gloss");
+    EXPECT_EQ(coat.surface.roughness, 0.03);
+    EXPECT_EQ(coat.resolved["surface"], "gloss");
+    ASSERT_TRUE(coat.resolved.contains("layers"));
+    EXPECT_EQ(coat.resolved["layers"].size(), 2u);
+    EXPECT_FALSE(coat.resolved.contains("binder"));
+    EXPECT_EQ(coat.resolved["layers"][0],
+              (nlohmann::json{{"binder", {{"material", "pmma"}, {"absorption_per_mm", 0.0}}},
+                              {"thickness_um", 20.0}}));
+
+    const MaterialSpec& base = specs[1];
+    ASSERT_EQ(base.layers.size(), 2u);
+    EXPECT_EQ(base.layers[0].thickness_um, 15.0);
+    EXPECT_EQ(base.layers[0].binder->absorption_per_mm, 0.01);
+    ASSERT_TRUE(base.layers[1].medium.has_value());
+    EXPECT_EQ(base.layers[1].medium->optical_depth, 3.0);
+    EXPECT_EQ(base.layers[1].medium->index, 1.5);
+    EXPECT_EQ(base.substrate->albedo, (std::array<double, 3>{0.2, 0.2, 0.2}));
+    EXPECT_FALSE(base.substrate->grey);
+    EXPECT_EQ(base.surface.kind, Surface::Rough);
+    EXPECT_EQ(base.surface.distribution, Microfacet::Beckmann);
+    EXPECT_EQ(base.surface.roughness, 0.2);
+    EXPECT_EQ(base.surface.finish, "");
+    EXPECT_EQ(base.resolved["surface"],
+              (nlohmann::json{{"roughness", 0.2}, {"distribution", "beckmann"}}));
+    EXPECT_EQ(base.colorspace, ColorSpace::AcesCg);
+    EXPECT_EQ(base.resolved["colorspace"], "acescg");
+    // Outputs in their canonical order, whatever the order written.
+    EXPECT_EQ(base.outputs,
+              (std::vector<std::string>{"merl", "exr", "fourier", "rgl", "spectral_exr"}));
+
+    // Media all the way down; the lower one has no index (index-matched to the one above).
+    const MaterialSpec& media = specs[2];
+    ASSERT_EQ(media.layers.size(), 2u);
+    EXPECT_EQ(media.layers[0].medium->optical_depth, 1.0);
+    EXPECT_FALSE(media.layers[1].medium->index.has_value());
+    EXPECT_EQ(media.layers[1].medium->phase, PhaseType::HenyeyGreenstein);
+    EXPECT_EQ(media.surface.kind, Surface::None);
+
+    for (const MaterialSpec& s : specs) expect_round_trip(s);
+}
+
+TEST(SpecStacks, AStackOfOneLayerIsThatLayer) {
+    const MaterialSpec plain = load_specs(good("design_example.json")).at(0);
+    nlohmann::json doc = {{"name", "seed-tio2-white"}, {"layers", {white_layer()}}};
+    const MaterialSpec stacked = parse_specs(doc, "stack.json").at(0);
+    EXPECT_EQ(stacked.resolved, plain.resolved);
+    EXPECT_EQ(stacked.hash, plain.hash);
+    // The same for a film.
+    nlohmann::json film = white("f");
+    film["thickness_um"] = 8;
+    nlohmann::json layer = white_layer();
+    layer["thickness_um"] = 8;
+    EXPECT_EQ(parse_specs({{"name", "f"}, {"layers", {layer}}}, "a.json").at(0).hash,
+              parse_specs(film, "b.json").at(0).hash);
+}
+
+TEST(SpecStacks, TheTopLayerSetsTheDefaultSurface) {
+    nlohmann::json doc = {{"name", "s"},
+                          {"layers", {{{"medium", {{"albedo", 0.5}, {"optical_depth", 1}}}},
+                                      white_layer()}}};
+    EXPECT_EQ(parse_specs(doc, "a.json").at(0).surface.kind, Surface::None);
+    doc["layers"] = {{{"binder", {{"index", 1.5}}}, {"thickness_um", 3}},
+                     {{"medium", {{"albedo", 0.5}}}}};
+    EXPECT_EQ(parse_specs(doc, "b.json").at(0).surface.kind, Surface::Smooth);
+}
+
+TEST(SpecStacks, VolumeFractionsAndDenseLoadsArePerLayer) {
+    nlohmann::json layer = white_layer();
+    layer["pigments"][0]["volume_fraction"] = 0.5;
+    layer["thickness_um"] = 10;
+    nlohmann::json last = white_layer();
+    last["pigments"][0]["volume_fraction"] = 0.7;
+    // 0.5 + 0.7 over two layers is fine: each layer's pigments share that layer only.
+    const MaterialSpec s = parse_specs({{"name", "s"}, {"layers", {layer, last}}}, "v.json").at(0);
+    bool dense = false;
+    for (const auto& w : s.warnings)
+        if (w.find("v.json: layers[1].pigments: volume fractions sum to 0.7") == 0) dense = true;
+    EXPECT_TRUE(dense) << ::testing::PrintToString(s.warnings);
+    // Within one layer they must not exceed 1.
+    last["pigments"].push_back(last["pigments"][0]);
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "s"}, {"layers", {layer, last}}}),
+              "doc.json: layers[1].pigments: volume fractions sum to 1.4, more than 1 (got 0.7 + "
+              "0.7)");
+}
+
+TEST(SpecStacks, TheSizeParameterLimitAppliesToEveryLayer) {
+    nlohmann::json top = white_layer();
+    top["thickness_um"] = 10;
+    nlohmann::json big = {
+        {"binder", {{"index", 1.5}}},
+        {"pigments",
+         {white_layer()["pigments"][0],
+          {{"index", 2.0},
+           {"volume_fraction", 0.1},
+           {"size", {{"distribution", "monodisperse"}, {"radius_um", 10000.0}}}}}}};
+    const nlohmann::json doc = {{"name", "p"}, {"layers", {top, big}}, {"spectrum", "rgb"}};
+    EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }),
+              "doc.json: layers[1].pigments[1].size: size parameter x = 2 pi r_max n_binder / "
+              "lambda reaches 203120 (r_max 1e+04 um, n_binder 1.5 at 464 nm), above the limit of "
+              "1e+05 (Mie series need about x terms per radius); to override, set \"limits\": "
+              "{\"max_size_parameter\": 203121}");
+}
+
+TEST(SpecSurface, NamedFinishesAndRoughness) {
+    const struct {
+        const char* finish;
+        double alpha;
+    } finishes[] = {{"gloss", 0.03}, {"satin", 0.15}, {"matte", 0.40}};
+    for (const auto& f : finishes) {
+        nlohmann::json doc = white();
+        doc["surface"] = f.finish;
+        const MaterialSpec s = parse_specs(doc, "f.json").at(0);
+        EXPECT_EQ(s.surface.kind, Surface::Rough) << f.finish;
+        EXPECT_EQ(s.surface.roughness, f.alpha) << f.finish;
+        EXPECT_EQ(s.surface.distribution, Microfacet::Ggx) << f.finish;
+        EXPECT_EQ(s.surface.finish, f.finish);
+        EXPECT_EQ(s.resolved["surface"], f.finish);
+        expect_round_trip(s);
+    }
+    nlohmann::json doc = white();
+    doc["surface"] = {{"roughness", 0.001}}; // the distribution defaults to GGX
+    MaterialSpec s = parse_specs(doc, "r.json").at(0);
+    EXPECT_EQ(s.surface.kind, Surface::Rough);
+    EXPECT_EQ(s.surface.roughness, 0.001);
+    EXPECT_EQ(s.surface.distribution, Microfacet::Ggx);
+    EXPECT_EQ(s.resolved["surface"], (nlohmann::json{{"roughness", 0.001}, {"distribution", "ggx"}}));
+    expect_round_trip(s);
+    doc["surface"] = {{"roughness", 1}, {"distribution", "beckmann"}};
+    s = parse_specs(doc, "r.json").at(0);
+    EXPECT_EQ(s.surface.roughness, 1.0);
+    EXPECT_EQ(s.surface.distribution, Microfacet::Beckmann);
+    // "smooth" and "none" are unchanged and carry no roughness.
+    doc["surface"] = "none";
+    s = parse_specs(doc, "n.json").at(0);
+    EXPECT_EQ(s.surface.kind, Surface::None);
+    EXPECT_EQ(s.surface.roughness, 0.0);
+    EXPECT_EQ(s.surface.finish, "");
+    EXPECT_EQ(to_string(Surface::Rough), "rough");
+    EXPECT_EQ(to_string(Microfacet::Ggx), "ggx");
+    EXPECT_EQ(to_string(Microfacet::Beckmann), "beckmann");
+}
+
+TEST(SpecSurface, ARoughSurfaceOnAMediumNeedsItsIndex) {
+    nlohmann::json doc = {{"name", "m"},
+                          {"medium", {{"albedo", 0.9}, {"index", 1.4}}},
+                          {"surface", "satin"}};
+    EXPECT_EQ(parse_specs(doc, "m.json").at(0).layers[0].medium->index, 1.4);
+    // In a stack only the top medium needs one.
+    doc = {{"name", "m"},
+           {"surface", {{"roughness", 0.3}}},
+           {"layers", {{{"medium", {{"albedo", 0.9}, {"optical_depth", 1}}}},
+                       {{"medium", {{"albedo", 0.9}}}}}}};
+    EXPECT_EQ(input_error(doc),
+              "doc.json: layers[0].medium.index: missing (a rough \"surface\" on an analytic "
+              "medium needs the medium's real refractive index, e.g. \"index\": 1.5)");
+    doc["layers"][0]["medium"]["index"] = 1.5;
+    EXPECT_NO_THROW(parse_specs(doc, "doc.json"));
+}
+
+TEST(SpecColorspace, DefaultIsRec709AndLeavesTheHashUnchanged) {
+    const MaterialSpec plain = parse_specs(white(), "a.json").at(0);
+    EXPECT_EQ(plain.colorspace, ColorSpace::Rec709);
+    EXPECT_FALSE(plain.resolved.contains("colorspace"));
+    nlohmann::json doc = white();
+    doc["colorspace"] = "rec709";
+    EXPECT_EQ(parse_specs(doc, "b.json").at(0).hash, plain.hash);
+    doc["colorspace"] = "rec2020";
+    const MaterialSpec wide = parse_specs(doc, "c.json").at(0);
+    EXPECT_EQ(wide.colorspace, ColorSpace::Rec2020);
+    EXPECT_EQ(wide.resolved["colorspace"], "rec2020");
+    EXPECT_NE(wide.hash, plain.hash);
+    expect_round_trip(wide);
+}
+
+TEST(SpecCatalogue, DefaultsMergeByModelGroup) {
+    const nlohmann::json doc = {
+        {"defaults",
+         {{"binder", {{"material", "pmma"}}}, {"thickness_um", 30}, {"substrate", {{"albedo", 0.8}}}}},
+        {"materials",
+         {// inherits binder, thickness and substrate: a film
+          {{"name", "paint"}, {"pigments", white_layer()["pigments"]}},
+          // its own thickness: still inherits the binder (the same group) and the substrate
+          {{"name", "thin"}, {"pigments", white_layer()["pigments"]}, {"thickness_um", 5}},
+          // a semi-infinite medium: neither the particulate keys nor the films' substrate
+          {{"name", "fog"}, {"medium", {{"albedo", 0.9}}}},
+          // a stack: no single-layer keys; its last layer is finite, so the substrate applies
+          {{"name", "stack"},
+           {"layers", {{{"medium", {{"albedo", 0.9}, {"optical_depth", 1}, {"index", 1.5}}}}}}}}}};
+    const auto specs = parse_specs(doc, "cat.json");
+    ASSERT_EQ(specs.size(), 4u);
+    EXPECT_EQ(specs[0].layers[0].thickness_um, 30.0);
+    EXPECT_EQ(specs[0].layers[0].binder->index.id, "pmma");
+    EXPECT_EQ(specs[0].substrate->albedo[0], 0.8);
+    EXPECT_EQ(specs[1].layers[0].thickness_um, 5.0);
+    EXPECT_EQ(specs[1].layers[0].binder->index.id, "pmma");
+    EXPECT_FALSE(specs[2].layers[0].binder.has_value());
+    EXPECT_TRUE(specs[2].layers[0].semi_infinite());
+    EXPECT_FALSE(specs[2].substrate.has_value());
+    EXPECT_FALSE(specs[2].resolved.contains("substrate"));
+    EXPECT_FALSE(specs[3].layers[0].binder.has_value());
+    EXPECT_EQ(specs[3].layers[0].medium->optical_depth, 1.0);
+    EXPECT_EQ(specs[3].substrate->albedo[2], 0.8);
+    // The other way round: a catalogue of stacks does not give its layers to a top-level material.
+    const nlohmann::json stacks = {
+        {"defaults", {{"layers", {{{"medium", {{"albedo", 0.9}}}}}}}},
+        {"materials", {white("own"), {{"name", "inherited"}}}}};
+    const auto s2 = parse_specs(stacks, "stacks.json");
+    ASSERT_EQ(s2.size(), 2u);
+    EXPECT_EQ(s2[0].hash, parse_specs(white("own"), "x.json").at(0).hash);
+    EXPECT_TRUE(s2[1].layers[0].medium.has_value());
+}
+
+// Every fault of the new keys, with its exact message (tests/data/specs/bad, one file each).
+struct ExactCase {
+    std::string file;               // under tests/data/specs/bad, without ".json"
+    std::vector<std::string> lines; // the whole message, each line without "FILE: "
+};
+
+std::ostream& operator<<(std::ostream& os, const ExactCase& c) { return os << c.file; }
+
+class SpecBadExact : public ::testing::TestWithParam<ExactCase> {};
+
+TEST_P(SpecBadExact, ExactMessage) {
+    const ExactCase& c = GetParam();
+    const std::filesystem::path file = bad(c.file + ".json");
+    std::string expected;
+    for (const std::string& line : c.lines) {
+        if (!expected.empty()) expected += '\n';
+        expected += file.string();
+        expected += ": ";
+        expected += line;
+    }
+    EXPECT_EQ(input_error(file), expected);
+}
+
+const ExactCase exact_cases[] = {
+    {"thickness_negative", {"thickness_um: must be > 0 (got -5)"}},
+    {"optical_depth_zero", {"medium.optical_depth: must be > 0 (got 0)"}},
+    {"thickness_on_medium",
+     {"thickness_um: not used by an analytic medium (give its optical depth instead: \"medium\": "
+      "{..., \"optical_depth\": tau})"}},
+    {"substrate_semi_infinite",
+     {"substrate: not allowed under a semi-infinite layer (nothing lies under it; give the last "
+      "layer \"thickness_um\", or \"optical_depth\" in its medium, to make it a film)"}},
+    {"layers_empty", {"layers: must list at least one layer, top first (got [])"}},
+    {"layers_semi_infinite_not_last",
+     {"layers[0].medium.optical_depth: missing (only the last layer may be semi-infinite)"}},
+    {"clear_binder_without_thickness",
+     {"pigments: missing (a particulate material needs at least one pigment; a clear binder "
+      "layer needs \"thickness_um\")"}},
+    {"substrate_albedo_out_of_range", {"substrate.albedo[2]: must be in [0, 1] (got 1.5)"}},
+    {"substrate_albedo_shape",
+     {"substrate.albedo: expected one number or three [r, g, b] (got [0.5,0.5])"}},
+    {"layers_and_single_layer_keys",
+     {"binder: cannot be combined with \"layers\" (a material is one layer given by its own "
+      "binder, pigments, medium, thickness_um, or a stack given by \"layers\"; move it into a "
+      "layer)",
+      "thickness_um: cannot be combined with \"layers\" (a material is one layer given by its own "
+      "binder, pigments, medium, thickness_um, or a stack given by \"layers\"; move it into a "
+      "layer)"}},
+    {"layer_unknown_key",
+     {"layers[0].thicknes_um: unknown key (did you mean \"thickness_um\"?); expected one of: "
+      "binder, pigments, medium, thickness_um (a layer is \"binder\" + \"pigments\" + "
+      "\"thickness_um\", or \"medium\" with its \"optical_depth\" inside)"}},
+    {"roughness_out_of_range",
+     {"surface.roughness: must be in [0.001, 1] (alpha of Walter et al. 2007; below 0.001 use "
+      "\"smooth\") (got 2)"}},
+    {"unknown_microfacet",
+     {"surface.distribution: must be one of ggx, beckmann (did you mean \"ggx\"?) (got \"gxx\")"}},
+    {"unknown_finish",
+     {"surface: must be \"none\", \"smooth\", \"gloss\", \"satin\", \"matte\" or {\"roughness\": "
+      "alpha} (did you mean \"satin\"?) (got \"satine\")"}},
+    {"unknown_colorspace",
+     {"colorspace: must be one of rec709, acescg, rec2020 (did you mean \"acescg\"?) (got "
+      "\"aces\")"}},
+    {"unknown_output",
+     {"outputs[1]: must be one of merl, exr, fourier, rgl, spectral_exr (did you mean "
+      "\"spectral_exr\"?) (got \"spectral-exr\")"}},
+    {"rough_medium_without_index",
+     {"medium.index: missing (a rough \"surface\" on an analytic medium needs the medium's real "
+      "refractive index, e.g. \"index\": 1.5)"}},
+};
+
+INSTANTIATE_TEST_SUITE_P(Files, SpecBadExact, ::testing::ValuesIn(exact_cases),
+                         [](const ::testing::TestParamInfo<ExactCase>& param_info) {
+                             return param_info.param.file;
+                         });
+
+TEST(SpecNewKeyFaults, NonFiniteAndNonPositiveValues) {
+    nlohmann::json doc = white();
+    doc["thickness_um"] = std::nan("");
+    EXPECT_EQ(input_error(doc), "doc.json: thickness_um: must be a finite number (got NaN)");
+    doc["thickness_um"] = 0;
+    EXPECT_EQ(input_error(doc), "doc.json: thickness_um: must be > 0 (got 0)");
+    doc["thickness_um"] = "10";
+    EXPECT_EQ(input_error(doc),
+              "doc.json: thickness_um: expected a number, got a string (got \"10\")");
+
+    nlohmann::json medium = {{"name", "m"}, {"medium", {{"albedo", 0.9}, {"optical_depth", -1}}}};
+    EXPECT_EQ(input_error(medium), "doc.json: medium.optical_depth: must be > 0 (got -1)");
+    medium["medium"]["optical_depth"] = std::numeric_limits<double>::infinity();
+    EXPECT_EQ(input_error(medium),
+              "doc.json: medium.optical_depth: must be a finite number (got Infinity)");
+
+    doc = white();
+    doc["surface"] = {{"roughness", std::nan("")}};
+    EXPECT_EQ(input_error(doc), "doc.json: surface.roughness: must be a finite number (got NaN)");
+    doc["surface"] = {{"roughness", 0.0009}};
+    EXPECT_EQ(input_error(doc),
+              "doc.json: surface.roughness: must be in [0.001, 1] (alpha of Walter et al. 2007; "
+              "below 0.001 use \"smooth\") (got 0.0009)");
+    doc["surface"] = {{"distribution", "ggx"}};
+    EXPECT_EQ(input_error(doc),
+              "doc.json: surface.roughness: missing (the microfacet roughness alpha of Walter et "
+              "al. 2007, in [0.001, 1])");
+    doc["surface"] = {{"roughnes", 0.1}};
+    EXPECT_EQ(input_error(doc),
+              "doc.json: surface.roughnes: unknown key (did you mean \"roughness\"?); expected one "
+              "of: roughness, distribution");
+    doc["surface"] = 0.1;
+    EXPECT_EQ(input_error(doc),
+              "doc.json: surface: expected \"none\", \"smooth\", a finish (\"gloss\", \"satin\", "
+              "\"matte\") or {\"roughness\": alpha}, got a number (got 0.1)");
+}
+
+TEST(SpecNewKeyFaults, SubstrateShapes) {
+    nlohmann::json doc = white();
+    doc["thickness_um"] = 10;
+    doc["substrate"] = {{"albedo", -0.1}};
+    EXPECT_EQ(input_error(doc), "doc.json: substrate.albedo: must be in [0, 1] (got -0.1)");
+    doc["substrate"] = {{"albedo", "white"}};
+    EXPECT_EQ(input_error(doc),
+              "doc.json: substrate.albedo: expected a number in [0, 1] or [r, g, b], got a string "
+              "(got \"white\")");
+    doc["substrate"] = 0.5;
+    EXPECT_EQ(input_error(doc),
+              "doc.json: substrate: expected an object (e.g. {\"albedo\": 0.8} or {\"albedo\": "
+              "[0.8, 0.7, 0.6]}), got a number (got 0.5)");
+    doc["substrate"] = nlohmann::json::object();
+    EXPECT_EQ(input_error(doc),
+              "doc.json: substrate.albedo: missing (the substrate's Lambertian albedo: a number "
+              "in [0, 1] or [r, g, b]; 0 is black)");
+    doc["substrate"] = {{"albedo", 0.5}, {"colour", "red"}};
+    EXPECT_EQ(input_error(doc),
+              "doc.json: substrate.colour: unknown key; expected one of: albedo");
+}
+
+TEST(SpecNewKeyFaults, LayerShapes) {
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "s"}, {"layers", white_layer()}}),
+              "doc.json: layers: expected an array of layers, top first, got an object (got "
+              "{\"binder\":{\"material\":\"pmma\"},\"pigments\":[{\"material\":\"t ...)");
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "s"}, {"layers", {5}}}),
+              "doc.json: layers[0]: expected an object (a layer: {\"binder\": ..., \"pigments\": "
+              "[...], \"thickness_um\": T} or {\"medium\": {...}}), got a number (got 5)");
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "s"}, {"layers", {nlohmann::json::object()}}}),
+              "doc.json: layers[0]: needs either \"binder\" + \"pigments\" (a particulate layer; "
+              "a clear film needs no pigments) or \"medium\" (an analytic medium)");
+    // A binder layer that is not last needs a thickness; a clear one needs it anyway.
+    nlohmann::json clear = {{"binder", {{"material", "pmma"}}}};
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "s"}, {"layers", {white_layer(), clear}}}),
+              "doc.json: layers[0].thickness_um: missing (only the last layer may be "
+              "semi-infinite)\n"
+              "doc.json: layers[1].pigments: missing (a particulate layer needs at least one "
+              "pigment; a clear binder layer needs \"thickness_um\")");
+    // Binder and medium in one layer.
+    nlohmann::json both = white_layer();
+    both["medium"] = {{"albedo", 0.5}};
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "s"}, {"layers", {both}}}),
+              "doc.json: layers[0].medium: cannot be combined with \"binder\": a layer is either "
+              "particulate (binder + pigments) or an analytic medium");
+    // A substrate under a stack whose last layer is semi-infinite.
+    nlohmann::json top = white_layer();
+    top["thickness_um"] = 4;
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "s"},
+                                         {"layers", {top, white_layer()}},
+                                         {"substrate", {{"albedo", 1}}}}),
+              "doc.json: substrate: not allowed under a semi-infinite layer (nothing lies under "
+              "it; give the last layer \"thickness_um\", or \"optical_depth\" in its medium, to "
+              "make it a film)");
+    // Every fault of every layer at once, each with its path.
+    nlohmann::json bad_top = white_layer();
+    bad_top["thickness_um"] = -1;
+    nlohmann::json bad_last = {{"medium", {{"albedo", 2}, {"optical_depth", 0}}}};
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "s"}, {"layers", {bad_top, bad_last}}}),
+              "doc.json: layers[0].thickness_um: must be > 0 (got -1)\n"
+              "doc.json: layers[1].medium.albedo: must be in [0, 1] (got 2)\n"
+              "doc.json: layers[1].medium.optical_depth: must be > 0 (got 0)");
+}
+
+TEST(SpecNewKeyFaults, OldSpecsKeepTheirOtherMessages) {
+    // A binder without pigments and without thickness is still "pigments: missing".
+    EXPECT_EQ(input_error(nlohmann::json{{"name", "x"}, {"binder", {{"index", 1.5}}}}),
+              "doc.json: pigments: missing (a particulate material needs at least one pigment; a "
+              "clear binder layer needs \"thickness_um\")");
+    // A clear film may write its empty pigment list.
+    nlohmann::json doc = {{"name", "x"}, {"binder", {{"index", 1.5}}},
+                          {"pigments", nlohmann::json::array()}};
+    EXPECT_NE(input_error(doc).find("pigments: must list at least one pigment (got [])"),
+              std::string::npos);
+    doc["thickness_um"] = 2;
+    const MaterialSpec s = parse_specs(doc, "x.json").at(0);
+    EXPECT_TRUE(s.layers[0].pigments.empty());
+    EXPECT_FALSE(s.resolved.contains("pigments"));
+}
+
 } // namespace
 } // namespace brdf::material
