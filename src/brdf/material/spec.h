@@ -17,12 +17,13 @@
 //    number (1.5) or a string ("2.7+0.01i", brdf::parse_complex_index); a binder's index must be
 //    real (its absorption is absorption_per_mm).
 //  - An optional "description" string is kept in the resolved spec.
-//  - "medium" takes an optional "index" (the medium's real refractive index), required with
-//    "surface": "smooth"; "phase" defaults to isotropic and may be written as a type string
-//    ("rayleigh") where the type has no parameters.
+//  - "medium" takes an optional "index" (the medium's real refractive index), required on the top
+//    layer under a smooth or rough surface; "phase" defaults to isotropic and may be written as a
+//    type string ("rayleigh") where the type has no parameters.
 //  - Catalogue defaults merge key by key at the top level (the material's own keys win); the model
-//    keys (binder, pigments) and (medium) form groups: a material that gives one group does not
-//    inherit the other from the defaults.
+//    keys form groups, (binder, pigments, thickness_um), (medium) and (layers): a material that
+//    gives a key of one group inherits none of the others from the defaults. A "substrate" from
+//    the defaults is inherited only by materials whose last layer is finite.
 //  - Explicit wavelength lists follow spectrum.h (wavelength_list_problems: each in
 //    [explicit_min_nm, explicit_max_nm], strictly increasing); their count is limited by
 //    SpecLimits::max_wavelengths.
@@ -34,10 +35,6 @@
 //    of one layer resolves to the top-level form, so both spellings hash alike; specs without the
 //    new keys resolve exactly as before. A finite last layer lies on a Lambertian "substrate"
 //    (black unless given; written into the resolved spec only for such films).
-//  - Catalogue defaults: besides the material's own keys winning, the model keys form three
-//    groups, (binder, pigments, thickness_um), (medium) and (layers); a material that gives a key
-//    of one group inherits none of the others from the defaults. A "substrate" from the defaults
-//    is inherited only by materials whose last layer is finite.
 //  - "surface" may also be rough: {"roughness": alpha, "distribution": "ggx" | "beckmann"} or the
 //    named finishes "gloss", "satin", "matte"; "colorspace" is resolved only when not "rec709".
 //  The complete reference of the format is docs/spec.md.

@@ -309,14 +309,13 @@ void MaterialParser::parse_layers(MaterialSpec& spec, json& resolved) {
     } else if (given) {
         // A catalogue's default substrate is for its films: a semi-infinite material ignores it
         // (its own faults are still reported).
+        json unused;
         if (last_finite == false && !inherited)
             c.fail(spath, "not allowed under a semi-infinite layer (nothing lies under it; give "
                           "the last layer \"thickness_um\", or \"optical_depth\" in its medium, "
                           "to make it a film)");
-        else {
-            json r;
-            parse_substrate(obj["substrate"], spath, r);
-        }
+        else
+            parse_substrate(obj["substrate"], spath, unused);
     }
 }
 
