@@ -140,6 +140,37 @@ TEST(Pipeline, InvalidSpecComputesNothing) {
     EXPECT_FALSE(std::filesystem::exists(dir / "out/x.binary"));
 }
 
+// The spec format describes films, stacks, rough surfaces, other colour spaces and outputs (docs/
+// spec.md) that the pipeline does not compute yet: each is refused with an InputError naming it,
+// before any work, instead of being computed as something else.
+TEST(Pipeline, RefusesWhatItCannotComputeYet) {
+    const auto refusal = [](const std::string& text) {
+        try {
+            service::solve_material(spec_from(text), service::Device::Cpu);
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no InputError");
+    };
+    EXPECT_EQ(refusal(R"({"name": "f", "medium": {"albedo": 0.9, "optical_depth": 2}})"),
+              "test.json: finite layers (\"thickness_um\", \"optical_depth\", \"substrate\") are "
+              "not supported yet");
+    EXPECT_EQ(refusal(R"({"name": "s", "layers": [{"medium": {"albedo": 0.9, "optical_depth": 1}},
+                                                  {"medium": {"albedo": 0.5}}]})"),
+              "test.json: stacks of several layers (\"layers\") are not supported yet");
+    EXPECT_EQ(refusal(R"({"name": "r", "medium": {"albedo": 0.9, "index": 1.5}, "surface": "satin"})"),
+              "test.json: rough surfaces (\"roughness\", \"gloss\", \"satin\", \"matte\") are not "
+              "supported yet");
+    EXPECT_EQ(refusal(R"({"name": "c", "medium": {"albedo": 0.9}, "colorspace": "acescg"})"),
+              "test.json: colour spaces other than \"rec709\" are not supported yet");
+    EXPECT_EQ(refusal(R"({"name": "o", "medium": {"albedo": 0.9}, "outputs": ["merl", "rgl"]})"),
+              "test.json: the output \"rgl\" is not supported yet");
+    // The defaults written out are computed as before.
+    EXPECT_EQ(refusal(R"({"name": "d", "medium": {"albedo": 0.9}, "colorspace": "rec709",
+                          "accuracy": "draft", "spectrum": "rgb"})"),
+              "no InputError");
+}
+
 } // namespace
 } // namespace brdf::test
 
@@ -151,7 +182,7 @@ namespace {
 TEST(PipelineSpectral, SelectedWavelengthsMeetTheTolerance) {
     const auto specs = material::load_specs(source_dir() / "examples/catalogue.json");
     for (const auto& spec : specs) {
-        if (spec.medium) continue;
+        if (spec.layers[0].medium) continue;
         service::Settings all = service::settings_for(spec.accuracy.tolerance);
         all.select_wavelengths = false;
         const auto full = service::solve_material(spec, service::Device::Cpu, all);

@@ -3,7 +3,7 @@
 namespace brdf::preview {
 
 Image render_material(const service::SolvedMaterial& material, RenderOptions options) {
-    if (material.spec.surface == material::Surface::Smooth)
+    if (material.spec.surface.kind == material::Surface::Smooth)
         options.mirror = [&material](double theta) { return material.mirror(theta); };
     return render_sphere([&material](double ti, double to, double phi) { return material.brdf(ti, to, phi); },
                          options);

@@ -14,6 +14,27 @@
 namespace brdf::service {
 namespace {
 
+// What the pipeline computes so far: one semi-infinite layer under no or a smooth interface, in
+// Rec.709, into MERL and EXR tables. The spec format already describes more (docs/spec.md); until
+// that physics lands, such a spec is refused here, naming what is missing, instead of being
+// computed as something else.
+void check_supported(const material::MaterialSpec& spec) {
+    const std::string who = spec.source.empty() ? spec.name : spec.source;
+    const auto refuse = [&](const std::string& what) {
+        throw InputError(cat(who, ": ", what, " not supported yet"));
+    };
+    if (spec.layers.empty()) refuse("a material without layers is");
+    if (spec.layers.size() > 1) refuse("stacks of several layers (\"layers\") are");
+    if (!spec.layers[0].semi_infinite())
+        refuse("finite layers (\"thickness_um\", \"optical_depth\", \"substrate\") are");
+    if (spec.surface.kind == material::Surface::Rough)
+        refuse("rough surfaces (\"roughness\", \"gloss\", \"satin\", \"matte\") are");
+    if (spec.colorspace != material::ColorSpace::Rec709)
+        refuse("colour spaces other than \"rec709\" are");
+    for (const std::string& f : spec.outputs)
+        if (f != "merl" && f != "exr") refuse(cat("the output \"", f, "\" is"));
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -201,6 +222,7 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device)
 }
 
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const Settings& settings) {
+    check_supported(spec);
     SolvedMaterial out;
     out.spec = spec;
     out.settings = settings;
@@ -215,13 +237,13 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     auto t0 = std::chrono::steady_clock::now();
     std::vector<SpectralOptics> optics;
     std::vector<Rgb> weights;
-    if (spec.medium) {
-        const material::MediumSpec& m = *spec.medium;
+    if (spec.layers[0].medium) {
+        const material::MediumSpec& m = *spec.layers[0].medium;
         const std::vector<double> beta = analytic_phase(m, 1e-3 * st.order_tolerance);
         const int channels = m.grey ? 1 : 3;
         for (int c = 0; c < channels; ++c) {
             SpectralOptics o;
-            o.binder_index = (spec.surface == material::Surface::Smooth && m.index) ? *m.index : 1.0;
+            o.binder_index = (spec.surface.kind == material::Surface::Smooth && m.index) ? *m.index : 1.0;
             o.medium = {m.albedo[c], beta};
             o.g = m.g;
             optics.push_back(std::move(o));
@@ -234,7 +256,7 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
         // Wavelengths are independent: split them over the cores.
         parallel_for(static_cast<int>(wavelengths.size()), available_cpus(),
                      [&](int k) { optics[k] = particulate_optics(spec, wavelengths[k], st.mie_tolerance); });
-        if (spec.surface == material::Surface::None)
+        if (spec.surface.kind == material::Surface::None)
             for (auto& o : optics) o.binder_index = 1.0;
         std::vector<Rgb> all(rgb.begin(), rgb.end());
         const SpectralSelection pick =
@@ -301,7 +323,7 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
         }
     }
     out.seconds.solve = seconds_since(t0);
-    if (!spec.medium) fit_into_gamut(out);
+    if (!spec.layers[0].medium) fit_into_gamut(out);
     return out;
 }
 

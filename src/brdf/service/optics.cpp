@@ -10,11 +10,12 @@
 namespace brdf::service {
 
 SpectralOptics particulate_optics(const material::MaterialSpec& spec, double wavelength_nm, double mie_tolerance) {
-    if (!spec.binder || spec.pigments.empty())
+    if (spec.layers.empty() || !spec.layers[0].binder || spec.layers[0].pigments.empty())
         throw InputError(cat(spec.source, ": particulate optics need a binder and pigments"));
+    const material::LayerSpec& layer = spec.layers[0]; // the one layer the pipeline computes so far
     SpectralOptics out;
     out.wavelength_nm = wavelength_nm;
-    out.binder_index = spec.binder->index.model.at(wavelength_nm).n;
+    out.binder_index = layer.binder->index.model.at(wavelength_nm).n;
     mie::EnsembleOptions options;
     options.tolerance = std::clamp(mie_tolerance, 1e-8, 0.1);
 
@@ -22,7 +23,7 @@ SpectralOptics particulate_optics(const material::MaterialSpec& spec, double wav
     // phase function weights each pigment's by its scattering N_i Csca_i.
     std::vector<double> beta;
     double sigma_s = 0.0, sigma_e = 0.0, sigma_a = 0.0;
-    for (const material::PigmentSpec& pigment : spec.pigments) {
+    for (const material::PigmentSpec& pigment : layer.pigments) {
         const material::IndexSample index = pigment.index.model.at(wavelength_nm);
         const mie::Ensemble e = mie::ensemble({index.n, index.k}, out.binder_index, wavelength_nm, pigment.size, options);
         PigmentOptics p;
@@ -42,8 +43,8 @@ SpectralOptics particulate_optics(const material::MaterialSpec& spec, double wav
         sigma_a += p.number_density_um3 * e.cabs_um2;
         out.pigments.push_back(p);
     }
-    const double binder_fraction = std::max(0.0, 1.0 - spec.pigment_volume_fraction());
-    const double binder_absorption = binder_fraction * spec.binder->absorption_per_mm * 1e-3;
+    const double binder_fraction = std::max(0.0, 1.0 - layer.pigment_volume_fraction());
+    const double binder_absorption = binder_fraction * layer.binder->absorption_per_mm * 1e-3;
     sigma_e += binder_absorption;
     sigma_a += binder_absorption;
     if (!(sigma_s > 0.0))
