@@ -1,6 +1,7 @@
 // run_daemon with fake job runners: the claim/finish/fail paths, --once, requeueing orphans (and not
 // the jobs of live daemons), two daemons on one spool, status.json, and a graceful stop.
 
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/service/daemon.h>
@@ -77,7 +78,7 @@ private:
         if (text.find("fail-input") != std::string::npos)
             throw InputError(cat(name, ": pigments[0].size.r_eff_um: must be > 0 (got -0.2)"));
         if (text.find("fail-other") != std::string::npos) throw std::runtime_error("out of luck");
-        service::write_file_atomic(results / (spec.stem().string() + ".result"), text, false);
+        write_file_atomically(results / (spec.stem().string() + ".result"), text);
     }
 
     double m_sleep;

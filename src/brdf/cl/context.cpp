@@ -1,7 +1,9 @@
 #include <brdf/cl/context.h>
 
 #include <brdf/cl/kernel_sources.h>
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
+#include <brdf/core/hash.h>
 #include <brdf/core/log.h>
 
 #include <algorithm>
@@ -172,27 +174,10 @@ void inline_includes(std::string_view text, const std::string& file, const Read&
 
 // ---- disk cache of program binaries ---------------------------------------------------------
 // File opencl/HASH.bin: magic, the full key (checked on load, so a hash collision is a miss, never
-// a wrong program), then the device binary. Written to a temporary name and renamed, so concurrent
-// processes (brdfd and brdftool) never read a half-written file.
+// a wrong program), then the device binary. Written with core's AtomicFile.
 
 constexpr std::string_view cache_magic = "BRDFCLB1";
 constexpr std::uint64_t max_cache_file_bytes = std::uint64_t{1} << 30;
-
-std::uint64_t fnv1a64(std::string_view data) {
-    std::uint64_t h = 0xcbf29ce484222325ull;
-    for (unsigned char c : data) {
-        h ^= c;
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-
-std::string hex(std::uint64_t v) {
-    static const char digits[] = "0123456789abcdef";
-    std::string s(16, '0');
-    for (int i = 15; i >= 0; --i, v >>= 4) s[static_cast<std::size_t>(i)] = digits[v & 15];
-    return s;
-}
 
 void put_u64(std::string& out, std::uint64_t v) {
     for (int i = 0; i < 8; ++i) out += static_cast<char>((v >> (8 * i)) & 0xff);
@@ -234,20 +219,14 @@ bool cache_store(const fs::path& file, const std::string& key,
     data += key;
     put_u64(data, binary.size());
     data.append(binary.begin(), binary.end());
-    static std::atomic<unsigned> counter{0};
-    const fs::path tmp = fs::path(file).concat(cat(".tmp.", ::getpid(), ".", counter++));
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out.write(data.data(), static_cast<std::streamsize>(data.size())) || !out.flush()) {
-            std::error_code ec;
-            fs::remove(tmp, ec);
-            return false;
-        }
+    // Concurrent processes (brdfd and brdftool) never read a half-written binary.
+    try {
+        write_file_atomically(file, data);
+        return true;
+    } catch (const Error& e) {
+        log::debug("OpenCL binary cache: ", e.what());
+        return false;
     }
-    std::error_code ec;
-    fs::rename(tmp, file, ec);
-    if (ec) fs::remove(tmp, ec);
-    return !ec;
 }
 
 constexpr std::size_t max_build_log = 64 * 1024;
@@ -530,7 +509,7 @@ std::string Context::source(std::string_view name) const {
             log::debug("OpenCL binary cache skipped: cannot create ", dir.string(), ": ",
                        ec.message());
         else
-            cache_file = dir / (hex(fnv1a64(key)) + ".bin");
+            cache_file = dir / (fnv1a64_hex(key) + ".bin");
     }
 
     cl_int err = CL_SUCCESS;

@@ -50,18 +50,6 @@ std::string_view to_string(Model model) {
     return "unknown";
 }
 
-std::string fnv1a64_hex(std::string_view text) {
-    std::uint64_t h = 14695981039346656037ull; // FNV-1a 64 offset basis and prime (Fowler, Noll, Vo)
-    for (unsigned char c : text) {
-        h ^= c;
-        h *= 1099511628211ull;
-    }
-    static const char* digits = "0123456789abcdef";
-    std::string out(16, '0');
-    for (int i = 15; i >= 0; --i, h >>= 4) out[static_cast<std::size_t>(i)] = digits[h & 0xf];
-    return out;
-}
-
 namespace {
 
 // Shortest text that reads back as the same double ("0.1", "2.7", "1e-05").

@@ -29,6 +29,7 @@
 //  - An optional "limits" object raises the resource limits (SpecLimits); it is resolved only when
 //    given, so specs without it keep their hashes.
 
+#include <brdf/core/hash.h>
 #include <brdf/material/refractive_index.h>
 #include <brdf/material/spectrum.h>
 #include <brdf/mie/size_distribution.h>
@@ -173,7 +174,7 @@ std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_vi
 /// parse_specs_text, the file's path as given naming it in messages.
 std::vector<MaterialSpec> load_specs(const std::filesystem::path& file);
 
-/// FNV-1a 64 of `text` as 16 lowercase hex digits.
-std::string fnv1a64_hex(std::string_view text);
+/// FNV-1a 64 of `text` as 16 lowercase hex digits (the spec hash; the one implementation is in core).
+using brdf::fnv1a64_hex;
 
 } // namespace brdf::material

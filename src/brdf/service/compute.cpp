@@ -1,6 +1,7 @@
 #include <brdf/service/compute.h>
 
 #include <brdf/cl/context.h>
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/threads.h>
@@ -99,7 +100,9 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
         outcome.outputs.push_back(png);
     }
     const fs::path report = options.output_dir / (spec.name + ".report.json");
-    write_text_atomically(report, make_report(solved, formats).dump(1) + "\n");
+    // Through the same AtomicFile as the tables (fsync, rename, fsync of the folder): the stamp is
+    // never more durable than what it vouches for, nor less.
+    write_file_atomically(report, make_report(solved, formats).dump(1) + "\n");
     outcome.outputs.push_back(report);
     outcome.ok = true;
     outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -1,7 +1,9 @@
 #include <brdf/service/daemon.h>
 
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/progress.h>
 #include <brdf/service/spool.h>
 
 #include <nlohmann/json.hpp>
@@ -359,7 +361,7 @@ private:
                                        {"done", m_done},
                                        {"failed", m_failed}};
         try {
-            write_file_atomic(m_spool.status_file(), status.dump(2) + "\n", false);
+            write_file_atomically(m_spool.status_file(), status.dump(2) + "\n");
         } catch (const Error& e) {
             log::warn("brdfd: ", e.what());
         }

@@ -72,8 +72,9 @@ public:
     bool daemon_alive(const std::string& id) const;
 
     /// Whether a file name is a temporary of one of the spool's writers: hidden, with a "tmp"
-    /// component (".NAME.tmp.PID.N.STAMP" of the table writers, ".NAME.PID.tmp" of the report writer,
-    /// ".NAME.PID.N.tmp" of write_file_atomic, ".ID.lock.tmp" of a starting daemon).
+    /// component (".NAME.tmp.PID.N.STAMP" of core's AtomicFile, which writes every result, record
+    /// and status file; ".ID.lock.tmp" of a starting daemon; ".NAME.PID.tmp" and ".NAME.PID.N.tmp"
+    /// of the writers of earlier versions).
     static bool is_temporary_name(std::string_view name);
     /// Removes temporaries that a killed writer left in the spool (results/, active/, done/,
     /// failed/, daemons/ and the root; never incoming/, where users stage their own files). A file
@@ -113,10 +114,6 @@ private:
     std::string m_id;
     int m_fd = -1;
 };
-
-/// Writes `content` to a temporary name beside `path`, flushes it (and fsyncs it when `durable`),
-/// then renames it over `path`: readers see the old file or the new one, never a partial one.
-void write_file_atomic(const std::filesystem::path& path, std::string_view content, bool durable);
 
 /// Now as ISO 8601 UTC, e.g. "2024-05-01T12:34:56Z".
 std::string iso8601_now();
