@@ -155,12 +155,8 @@ std::string Spool::error_name(std::string_view name) {
 
 fs::path Spool::owner_file(const std::string& name) const { return active() / (name + ".owner"); }
 
-std::vector<std::string> Spool::queued() const {
-    struct Entry {
-        fs::file_time_type mtime;
-        std::string name;
-    };
-    std::vector<Entry> entries;
+std::vector<Spool::Queued> Spool::queued_jobs() const {
+    std::vector<Queued> entries;
     std::error_code ec;
     for (fs::directory_iterator it(incoming(), ec), end; !ec && it != end; it.increment(ec)) {
         std::string name = it->path().filename().string();
@@ -169,14 +165,19 @@ std::vector<std::string> Spool::queued() const {
         if (!it->is_regular_file(entry_ec)) continue;
         const fs::file_time_type mtime = it->last_write_time(entry_ec);
         if (entry_ec) continue; // taken by someone else while we looked
-        entries.push_back({mtime, std::move(name)});
+        const std::uintmax_t size = it->file_size(entry_ec);
+        if (entry_ec) continue;
+        entries.push_back({std::move(name), mtime, size});
     }
-    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    std::sort(entries.begin(), entries.end(), [](const Queued& a, const Queued& b) {
         return a.mtime != b.mtime ? a.mtime < b.mtime : a.name < b.name;
     });
+    return entries;
+}
+
+std::vector<std::string> Spool::queued() const {
     std::vector<std::string> names;
-    names.reserve(entries.size());
-    for (Entry& e : entries) names.push_back(std::move(e.name));
+    for (Queued& q : queued_jobs()) names.push_back(std::move(q.name));
     return names;
 }
 

@@ -12,6 +12,7 @@
 //   .spool.lock          flock: claims take it shared, the orphan scan exclusive
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -24,7 +25,8 @@ class DaemonLease;
 class Spool {
 public:
     /// Opens the spool at `root`, creating it and its folders when missing; throws IoError when a
-    /// folder cannot be created.
+    /// folder cannot be created. root() is absolute (a relative `root` is taken from the current
+    /// folder now), so every path the spool and the daemon report names the real place.
     explicit Spool(std::filesystem::path root);
 
     const std::filesystem::path& root() const { return m_root; }
@@ -42,7 +44,15 @@ public:
     /// The error record beside a failed spec: "paint.json" -> "paint.error.json".
     static std::string error_name(std::string_view name);
 
+    /// A job waiting in incoming/ as last seen: what tells a finished spec from one being written.
+    struct Queued {
+        std::string name;
+        std::filesystem::file_time_type mtime;
+        std::uintmax_t size = 0;
+    };
     /// Jobs waiting in incoming/ (regular files only), oldest first: by modification time, then name.
+    std::vector<Queued> queued_jobs() const;
+    /// The names of queued_jobs().
     std::vector<std::string> queued() const;
     /// Jobs in active/, by name.
     std::vector<std::string> active_jobs() const;
