@@ -7,7 +7,10 @@
 #include <formats/exr/spectral_exr.h>
 #include <formats/table_io.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
+#include <fstream>
 
 namespace brdf::tool {
 
@@ -24,7 +27,8 @@ bool is_spec_file(const std::filesystem::path& path) {
     return ext == ".json";
 }
 
-Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device) {
+Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device,
+                   const std::string& recorded) {
     Source s;
     if (!is_spec_file(path)) {
         if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
@@ -36,22 +40,40 @@ Source load_source(const std::filesystem::path& path, const std::string& materia
         return s;
     }
     std::vector<material::MaterialSpec> specs = material::load_specs(path);
+    std::string names;
+    for (const auto& m : specs) names += cat(names.empty() ? "" : ", ", m.name);
+    const std::string wanted = !material.empty() ? material : specs.size() > 1 ? recorded : std::string();
     const material::MaterialSpec* chosen = nullptr;
-    if (material.empty()) {
-        if (specs.size() != 1) {
-            std::string names;
-            for (const auto& m : specs) names += cat(names.empty() ? "" : ", ", m.name);
+    if (wanted.empty()) {
+        if (specs.size() != 1)
             throw InputError(cat(path.string(), ": holds ", specs.size(), " materials (", names,
                                  "); choose one with --material NAME"));
-        }
         chosen = &specs.front();
     } else {
         for (const auto& m : specs)
-            if (m.name == material) chosen = &m;
-        if (!chosen) throw InputError(cat(path.string(), ": no material named '", material, "'"));
+            if (m.name == wanted) chosen = &m;
+        if (!chosen)
+            throw InputError(cat(path.string(), ": no material named '", wanted, "'",
+                                 material.empty() ? " (the name the table records)" : "", "; it holds ",
+                                 names, material.empty() ? "; choose one with --material NAME" : ""));
     }
     s.model = service::solve_material(*chosen, device);
     return s;
+}
+
+std::string recorded_material(const std::filesystem::path& table_path, const formats::BrdfTable& table) {
+    const auto name_in = [](const nlohmann::json& j) {
+        return j.is_object() && j.contains("name") && j["name"].is_string() ? j["name"].get<std::string>()
+                                                                            : std::string();
+    };
+    if (!table.spec.empty())
+        if (const std::string name = name_in(nlohmann::json::parse(table.spec, nullptr, false)); !name.empty())
+            return name;
+    std::filesystem::path report = table_path;
+    report.replace_extension(".report.json");
+    std::ifstream in(report);
+    if (!in) return {};
+    return name_in(nlohmann::json::parse(in, nullptr, false));
 }
 
 service::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {

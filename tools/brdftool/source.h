@@ -40,8 +40,17 @@ struct Source {
 /// its wavelengths, linear Rec.709 (formats::read_table's converter).
 formats::SpectralToRgb spectral_to_rgb();
 
-/// A spec file (.json: the material named `material`, or its only one) or a table file.
-Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device);
+/// A spec file (.json: the material named `material`, or its only one) or a table file. `recorded`
+/// (diff TABLE CATALOGUE: the material the table says it was computed from) picks the material of
+/// a spec holding several when `material` is empty. A name that is not there is an InputError
+/// listing the names there are.
+Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device,
+                   const std::string& recorded = {});
+
+/// The name of the material a table file was computed from: the "name" of the spec in its EXR
+/// brdf.spec attribute, else of the report written beside it (DIR/NAME.report.json for
+/// DIR/NAME.binary or DIR/NAME.exr); empty when neither says.
+std::string recorded_material(const std::filesystem::path& table_path, const formats::BrdfTable& table);
 
 bool is_spec_file(const std::filesystem::path& path);
 

@@ -12,6 +12,7 @@
 #include <brdf/core/text.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdint>
 #include <fstream>
 #include <functional>
@@ -58,18 +59,6 @@ std::string_view to_string(Model model) {
     case Model::Dipole: return "dipole";
     }
     return "unknown";
-}
-
-std::string fnv1a64_hex(std::string_view text) {
-    std::uint64_t h = 14695981039346656037ull; // FNV-1a 64 offset basis and prime (Fowler, Noll, Vo)
-    for (unsigned char c : text) {
-        h ^= c;
-        h *= 1099511628211ull;
-    }
-    static const char* digits = "0123456789abcdef";
-    std::string out(16, '0');
-    for (int i = 15; i >= 0; --i, h >>= 4) out[static_cast<std::size_t>(i)] = digits[h & 0xf];
-    return out;
 }
 
 std::string IndexSpec::describe() const {
@@ -203,6 +192,63 @@ int model_group(std::string_view key) {
     return 0;
 }
 
+// The document with `overlay`'s keys set on every material (over its own keys and the defaults).
+json overlaid(const json& document, const json& overlay) {
+    json out = document;
+    const auto apply = [&](json& material) {
+        if (!material.is_object()) return;
+        for (const auto& item : overlay.items()) material[item.key()] = item.value();
+    };
+    if (!out.is_object()) return out;
+    if (!out.contains("materials")) {
+        apply(out);
+    } else if (out["materials"].is_array()) {
+        for (json& m : out["materials"]) apply(m);
+    }
+    return out;
+}
+
+// Logs each finding once per document: the same fault at several JSON paths (rutile's
+// extrapolation in every material of a catalogue that uses it) is one line naming every path,
+// "SOURCE: TEXT (at PATH, PATH, ...)". Each spec keeps its own warnings for its report.
+void log_warnings_once(const std::vector<MaterialSpec>& specs, std::string_view source) {
+    const std::string prefix = cat(source, ": ");
+    const auto is_path_char = [](char ch) {
+        return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '.' || ch == '[' ||
+               ch == ']' || ch == '-';
+    };
+    std::vector<std::pair<std::string, std::vector<std::string>>> groups; // text -> paths
+    for (const MaterialSpec& spec : specs)
+        for (const std::string& w : spec.warnings) {
+            std::string text = w, path;
+            if (w.rfind(prefix, 0) == 0) {
+                const std::string rest = w.substr(prefix.size());
+                const std::size_t colon = rest.find(": ");
+                if (colon != std::string::npos && colon > 0 &&
+                    std::all_of(rest.begin(), rest.begin() + static_cast<std::ptrdiff_t>(colon), is_path_char)) {
+                    path = rest.substr(0, colon);
+                    text = rest.substr(colon + 2);
+                }
+            }
+            auto group = std::find_if(groups.begin(), groups.end(),
+                                      [&](const auto& g) { return g.first == text; });
+            if (group == groups.end()) group = groups.insert(groups.end(), {text, {}});
+            if (std::find(group->second.begin(), group->second.end(), path) == group->second.end())
+                group->second.push_back(path);
+        }
+    for (const auto& [text, paths] : groups) {
+        if (paths.size() == 1 && paths.front().empty()) {
+            log::warn(text);
+        } else if (paths.size() == 1) {
+            log::warn(prefix, paths.front(), ": ", text);
+        } else {
+            std::string where;
+            for (const std::string& p : paths) where += cat(where.empty() ? "" : ", ", p.empty() ? "(document)" : p);
+            log::warn(prefix, text, " (at ", where, ")");
+        }
+    }
+}
+
 std::vector<MaterialSpec> parse_document(const json& document, std::string_view source_name,
                                          std::vector<std::string> early_problems) {
     Checker c{std::string(source_name)};
@@ -283,11 +329,14 @@ std::vector<MaterialSpec> parse_document(const json& document, std::string_view 
         if (c.only_limits()) throw LimitError(message);
         throw InputError(message);
     }
-    std::set<std::string> logged;
-    for (const MaterialSpec& s : specs)
-        for (const std::string& w : s.warnings)
-            if (logged.insert(w).second) log::warn(w);
+    log_warnings_once(specs, source_name);
     return specs;
+}
+
+std::vector<MaterialSpec> parse_document(const json& document, std::string_view source_name,
+                                         std::vector<std::string> early_problems, const json& overlay) {
+    if (!overlay.is_object() || overlay.empty()) return parse_document(document, source_name, std::move(early_problems));
+    return parse_document(overlaid(document, overlay), source_name, std::move(early_problems));
 }
 
 // Tracks the path of each value while nlohmann parses, to report duplicate keys (which the library
@@ -343,11 +392,13 @@ class DuplicateKeyFinder {
 } // namespace
 } // namespace spec_detail
 
-std::vector<MaterialSpec> parse_specs(const nlohmann::json& document, std::string_view source) {
-    return spec_detail::parse_document(document, source, {});
+std::vector<MaterialSpec> parse_specs(const nlohmann::json& document, std::string_view source,
+                                      const nlohmann::json& overlay) {
+    return spec_detail::parse_document(document, source, {}, overlay);
 }
 
-std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_view source) {
+std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_view source,
+                                           const nlohmann::json& overlay) {
     spec_detail::DuplicateKeyFinder finder;
     json document;
     try {
@@ -385,10 +436,10 @@ std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_vi
         throw InputError(cat(source, ": invalid JSON: ", what,
                              " (every number in a spec must fit in a double)"));
     }
-    return spec_detail::parse_document(document, source, std::move(finder.problems));
+    return spec_detail::parse_document(document, source, std::move(finder.problems), overlay);
 }
 
-std::vector<MaterialSpec> load_specs(const std::filesystem::path& file) {
+std::vector<MaterialSpec> load_specs(const std::filesystem::path& file, const nlohmann::json& overlay) {
     const std::string name = file.string();
     std::error_code ec;
     if (std::filesystem::is_directory(file, ec))
@@ -406,7 +457,7 @@ std::vector<MaterialSpec> load_specs(const std::filesystem::path& file) {
     std::ostringstream text;
     text << in.rdbuf();
     if (in.bad()) throw IoError(cat(name, ": read error"));
-    return parse_specs_text(text.str(), name);
+    return parse_specs_text(text.str(), name, overlay);
 }
 
 } // namespace brdf::material

@@ -39,6 +39,7 @@
 //    named finishes "gloss", "satin", "matte"; "colorspace" is resolved only when not "rec709".
 //  The complete reference of the format is docs/spec.md.
 
+#include <brdf/core/hash.h>
 #include <brdf/material/colour_space.h>
 #include <brdf/material/refractive_index.h>
 #include <brdf/material/spectrum.h>
@@ -211,18 +212,26 @@ struct MaterialSpec {
 /// `source` names the document in messages (usually the file name). When every problem is a
 /// resource limit (SpecLimits) the one exception is a LimitError instead, each line naming the limit
 /// and the "limits" key that overrides it.
-std::vector<MaterialSpec> parse_specs(const nlohmann::json& document, std::string_view source);
+///
+/// `overlay` (an object; empty: none) is set on every material before anything is parsed, over the
+/// material's own keys and the catalogue's defaults: `brdftool compute --accuracy` overrides each
+/// spec's accuracy so, e.g. {"accuracy": "draft"}. What is resolved and hashed is the overlaid
+/// material, so an override changes the spec hash (and "up to date" means up to date for it).
+std::vector<MaterialSpec> parse_specs(const nlohmann::json& document, std::string_view source,
+                                      const nlohmann::json& overlay = nlohmann::json::object());
 
 /// Parses JSON text (InputError "SOURCE:LINE:COLUMN: invalid JSON: ..." on syntax errors, which
 /// include NaN and Infinity; duplicate keys in an object are reported with the other problems) and
 /// then parse_specs.
-std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_view source);
+std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_view source,
+                                           const nlohmann::json& overlay = nlohmann::json::object());
 
 /// Reads a file (IoError if unreadable, LimitError above max_spec_file_bytes) and parses it with
 /// parse_specs_text, the file's path as given naming it in messages.
-std::vector<MaterialSpec> load_specs(const std::filesystem::path& file);
+std::vector<MaterialSpec> load_specs(const std::filesystem::path& file,
+                                     const nlohmann::json& overlay = nlohmann::json::object());
 
-/// FNV-1a 64 of `text` as 16 lowercase hex digits.
-std::string fnv1a64_hex(std::string_view text);
+/// FNV-1a 64 of `text` as 16 lowercase hex digits (the spec hash; the one implementation is in core).
+using brdf::fnv1a64_hex;
 
 } // namespace brdf::material

@@ -85,29 +85,4 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
     };
 }
 
-void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-    // Unique per call, not only per process: two daemon workers may write the same report at once
-    // (identical specs submitted together), and a shared temporary would make one rename fail.
-    static std::atomic<unsigned long> counter{0};
-    const std::filesystem::path tmp = path.parent_path() / cat(".", path.filename().string(), ".", getpid(), ".",
-                                                               counter.fetch_add(1), ".tmp");
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) throw IoError(cat(path.string(), ": cannot write (", std::strerror(errno), ")"));
-        out << text;
-        out.flush();
-        if (!out) {
-            std::error_code ec;
-            std::filesystem::remove(tmp, ec);
-            throw IoError(cat(path.string(), ": write failed"));
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        throw IoError(cat(path.string(), ": cannot rename into place (", ec.message(), ")"));
-    }
-}
-
 } // namespace brdf::service
