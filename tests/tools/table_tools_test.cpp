@@ -348,7 +348,8 @@ TEST(TableTools, DiffOfATableAgainstACataloguePicksTheRecordedMaterial) {
         const ProcessResult d = run_tool("brdftool", {"diff", (dir / table).string(), (dir / "cat.json").string(),
                                                       "--device", "cpu", "--json"});
         ASSERT_EQ(d.status, 0) << table << ": " << d.err;
-        for (const auto& ch : nlohmann::json::parse(d.out)["channels"])
+        const nlohmann::json result = nlohmann::json::parse(d.out);
+        for (const auto& ch : result["channels"])
             EXPECT_LT(ch["max"].get<double>(), 1e-12) << table << ": " << d.out;
     }
     // A MERL table with no report beside it records nothing: --material is needed, and says so.
