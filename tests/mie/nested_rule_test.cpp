@@ -44,7 +44,7 @@ Difference difference(const Ensemble& a, const Ensemble& b) {
 // v_eff = 0.1, at 450, 550, 700 nm, against tests/reference/mie/mie_reference.py matting:
 // miepython's series, a brute-force composite Gauss rule over 2160 radii (converged to the
 // "convergence" it states) and an exact angular rule for the first 17 moments. At the tolerance
-// "default" accuracy asks of Mie (1e-5, service/model.cpp) every quantity must agree within it.
+// "default" accuracy asks of Mie (1e-5, model/model.cpp) every quantity must agree within it.
 TEST(NestedRule, MattingAgentsMatchBruteForceReference) {
     std::ifstream in(test::source_dir() / "tests/reference/mie/matting_reference.json");
     ASSERT_TRUE(in) << "missing matting_reference.json";

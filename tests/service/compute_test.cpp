@@ -29,7 +29,7 @@ std::string tiny(const std::string& name, double albedo = 0.9, const std::string
 service::ComputeOptions cpu_into(const fs::path& dir) {
     service::ComputeOptions o;
     o.output_dir = dir;
-    o.device = service::Device::Cpu;
+    o.device = model::Device::Cpu;
     return o;
 }
 
@@ -41,7 +41,7 @@ TEST(Compute, AnExceptionThatIsNotABrdfErrorIsAnInternalErrorOfThatMaterialOnly)
     TempDir tmp;
     write_file(tmp / "c.json", cat(R"({"materials": [)", tiny("bug"), ", ", tiny("fine"), "]}"));
     service::ComputeOptions options = cpu_into(tmp / "out");
-    options.preview = [](const service::SolvedMaterial& m, const fs::path&) {
+    options.preview = [](const model::SolvedMaterial& m, const fs::path&) {
         if (m.spec.name == "bug") throw std::logic_error("an invariant broke");
     };
     const auto outcomes = service::compute_files({tmp / "c.json"}, options);
@@ -58,7 +58,7 @@ TEST(Compute, RunningOutOfMemoryIsAResourceLimitNotABug) {
     TempDir tmp;
     write_file(tmp / "m.json", tiny("m"));
     service::ComputeOptions options = cpu_into(tmp / "out");
-    options.preview = [](const service::SolvedMaterial&, const fs::path&) { throw std::bad_alloc(); };
+    options.preview = [](const model::SolvedMaterial&, const fs::path&) { throw std::bad_alloc(); };
     const auto outcomes = service::compute_files({tmp / "m.json"}, options);
     EXPECT_EQ(outcomes.at(0).kind, ErrorKind::Limit);
     EXPECT_EQ(outcomes[0].error, "out of memory");
@@ -153,7 +153,7 @@ TEST(Compute, TwoJobsComputingOneNameAtOnceRefuseTheSecond) {
     std::shared_future<void> release = release_a.get_future().share();
     service::ComputeOptions a_options = cpu_into(tmp / "results");
     a_options.job = "a.json";
-    a_options.preview = [&](const service::SolvedMaterial&, const fs::path&) {
+    a_options.preview = [&](const model::SolvedMaterial&, const fs::path&) {
         a_inside.set_value();
         release.wait(); // a is still computing "paint" while b starts
     };

@@ -27,10 +27,10 @@ int run_albedo(const AlbedoFlags& f) {
     const bool mirror = source.model && source.model->spec.surface.kind == material::Surface::Smooth;
     for (double deg : f.theta_i) {
         const double t = deg * std::numbers::pi / 180.0;
-        const service::Rgb a = source.albedo(t);
+        const model::Rgb a = source.albedo(t);
         std::printf("%.9g %.9g %.9g\n", a[0], a[1], a[2]);
         if (mirror) {
-            const service::Rgb m = source.model->mirror(t);
+            const model::Rgb m = source.model->mirror(t);
             std::printf("mirror %.9g %.9g %.9g\n", m[0], m[1], m[2]);
         }
     }

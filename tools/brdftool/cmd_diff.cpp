@@ -10,7 +10,7 @@
 #include "commands.h"
 #include "source.h"
 
-#include <brdf/service/cl_table_fill.h>
+#include <brdf/model/cl_table_fill.h>
 
 #include <formats/halfdiff.h>
 #include <formats/table_io.h>
@@ -42,7 +42,7 @@ namespace brdf::tool {
 /// material spec (.json) is refused for now (InputError naming the path). Throws what read_table
 /// throws: InputError for an unknown extension, IoError / FormatError for a bad file.
 formats::BrdfTable load_operand(const std::filesystem::path& path, const std::string& material,
-                                service::Device device, const std::string& recorded = {});
+                                model::Device device, const std::string& recorded = {});
 
 namespace {
 
@@ -185,10 +185,10 @@ int run_diff(const DiffFlags& f) {
 } // namespace
 
 formats::BrdfTable load_operand(const std::filesystem::path& path, const std::string& material,
-                                service::Device device, const std::string& recorded) {
+                                model::Device device, const std::string& recorded) {
     if (lower_extension(path) != ".json") return formats::read_table(path, spectral_to_rgb());
     const Source source = load_source(path, material, device, recorded);
-    return service::fill_table(service::prepare_fill(*source.model), device);
+    return model::fill_table(model::prepare_fill(*source.model), device);
 }
 
 Subcommand add_diff_command(CLI::App& root) {

@@ -19,7 +19,7 @@ void DeviceFlag::add_to(CLI::App& app) {
         ->check(CLI::IsMember({"opencl", "cpu"}));
 }
 
-service::Device DeviceFlag::device() const { return value == "cpu" ? service::Device::Cpu : service::Device::OpenCL; }
+model::Device DeviceFlag::device() const { return value == "cpu" ? model::Device::Cpu : model::Device::OpenCL; }
 
 bool is_spec_file(const std::filesystem::path& path) {
     std::string ext = path.extension().string();
@@ -27,7 +27,7 @@ bool is_spec_file(const std::filesystem::path& path) {
     return ext == ".json";
 }
 
-Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device,
+Source load_source(const std::filesystem::path& path, const std::string& material, model::Device device,
                    const std::string& recorded) {
     Source s;
     if (!is_spec_file(path)) {
@@ -57,7 +57,7 @@ Source load_source(const std::filesystem::path& path, const std::string& materia
                                  material.empty() ? " (the name the table records)" : "", "; it holds ",
                                  names, material.empty() ? "; choose one with --material NAME" : ""));
     }
-    s.model = service::solve_material(*chosen, device);
+    s.model = model::solve_material(*chosen, device);
     return s;
 }
 
@@ -76,13 +76,13 @@ std::string recorded_material(const std::filesystem::path& table_path, const for
     return name_in(nlohmann::json::parse(in, nullptr, false));
 }
 
-service::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {
+model::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {
     if (model) return model->brdf(theta_i, theta_o, phi);
     if (fourier) return formats::evaluate(*fourier, theta_i, theta_o, phi);
     return formats::lookup(*table, theta_i, theta_o, phi);
 }
 
-service::Rgb Source::albedo(double theta_i) const {
+model::Rgb Source::albedo(double theta_i) const {
     if (model) return model->albedo(theta_i);
     if (fourier)
         return formats::directional_albedo(

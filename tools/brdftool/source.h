@@ -4,7 +4,7 @@
 // or a table file (.binary, .exr, spectral .exr as RGB; evaluated by nearest-bin lookup). Files are
 // recognised by content (formats::detect_format).
 
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
 #include <formats/fourier/fourier.h>
 #include <formats/table.h>
 #include <formats/table_io.h>
@@ -21,19 +21,19 @@ namespace brdf::tool {
 struct DeviceFlag {
     std::string value = "opencl";
     void add_to(CLI::App& app);
-    service::Device device() const;
+    model::Device device() const;
 };
 
 struct Source {
-    std::optional<service::SolvedMaterial> model;
+    std::optional<model::SolvedMaterial> model;
     std::optional<formats::FourierBsdf> fourier;
     std::optional<formats::BrdfTable> table;
 
     /// BRDF (1/sr) at angles in radians.
-    service::Rgb brdf(double theta_i, double theta_o, double phi) const;
+    model::Rgb brdf(double theta_i, double theta_o, double phi) const;
     /// Directional-hemispherical reflectance at theta_i (radians): the model's, the Fourier BSDF's
     /// by formats::directional_albedo's quadrature of evaluate, or the table's by lookup.
-    service::Rgb albedo(double theta_i) const;
+    model::Rgb albedo(double theta_i) const;
 };
 
 /// RGB of a spectral table: the CIE 1931 / D65 weights of material::SpectralSet::integrating for
@@ -44,7 +44,7 @@ formats::SpectralToRgb spectral_to_rgb();
 /// (diff TABLE CATALOGUE: the material the table says it was computed from) picks the material of
 /// a spec holding several when `material` is empty. A name that is not there is an InputError
 /// listing the names there are.
-Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device,
+Source load_source(const std::filesystem::path& path, const std::string& material, model::Device device,
                    const std::string& recorded = {});
 
 /// The name of the material a table file was computed from: the "name" of the spec in its EXR

@@ -160,7 +160,7 @@ struct AccuracySpec {
 /// LimitError naming the limit, unless the spec raises it explicitly with an optional "limits"
 /// object, e.g. "limits": {"max_size_parameter": 1e6}. The object is kept in the resolved spec (and
 /// so in the hash) only when given. Limits that the spec alone decides are checked by parse_specs;
-/// max_legendre_terms needs the optics and is checked by service::solve_material.
+/// max_legendre_terms needs the optics and is checked by model::solve_material.
 struct SpecLimits {
     /// Most wavelengths in the spectrum (an explicit list); the solve is linear in the count.
     std::size_t max_wavelengths = 2000;

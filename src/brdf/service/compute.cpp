@@ -9,9 +9,9 @@
 #include <brdf/core/threads.h>
 #include <brdf/core/version.h>
 #include <brdf/material/spec.h>
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
 #include <brdf/service/report.h>
-#include <brdf/service/cl_table_fill.h>
+#include <brdf/model/cl_table_fill.h>
 #include <formats/exr/exr.h>
 #include <formats/merl/merl.h>
 
@@ -162,10 +162,10 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     if (tolerance > spec.accuracy.tolerance)
         log::info(spec.name, ": tables are solved to ", tolerance, ", not the requested ", spec.accuracy.tolerance,
                   " (finer than the tables can hold)");
-    SolvedMaterial solved = solve_material(spec, options.device, settings_for(tolerance));
+    model::SolvedMaterial solved = model::solve_material(spec, options.device, model::settings_for(tolerance));
     progress.stage("table");
     auto t = std::chrono::steady_clock::now();
-    formats::BrdfTable table = fill_table(prepare_fill(solved), options.device);
+    formats::BrdfTable table = model::fill_table(model::prepare_fill(solved), options.device);
     table.spec = spec.resolved.dump();
     table.generator = std::string(generator_string);
     solved.seconds.table = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -279,9 +279,9 @@ void run_compute_job(const fs::path& spec_file, const fs::path& results_dir) {
     // The daemon runs without a terminal and possibly without an OpenCL platform: fall back to the
     // CPU reference rather than failing every job, and say so (once in the log, in every report).
     if (cl::available()) {
-        options.device = Device::OpenCL;
+        options.device = model::Device::OpenCL;
     } else {
-        options.device = Device::Cpu;
+        options.device = model::Device::Cpu;
         const std::string why = cat("OpenCL unavailable (", cl::unavailable_reason(),
                                     "): computed with the CPU reference instead");
         static std::once_flag logged;

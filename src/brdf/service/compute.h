@@ -3,7 +3,7 @@
 // Mie, solve, table fill -> NAME.binary, NAME.exr, NAME.report.json in an output folder.
 
 #include <brdf/core/error.h>
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
 
 #include <filesystem>
 #include <functional>
@@ -15,7 +15,7 @@ namespace brdf::service {
 struct ComputeOptions {
     std::filesystem::path output_dir = ".";
     std::vector<std::string> formats;  ///< "merl", "exr"; empty: what each spec's `outputs` asks for
-    Device device = Device::OpenCL;
+    model::Device device = model::Device::OpenCL;
     int shard_index = 0;               ///< --shard I/N: compute materials I, I+N, I+2N, ...
     int shard_count = 1;
     int jobs = 1;                      ///< materials computed concurrently
@@ -33,7 +33,7 @@ struct ComputeOptions {
     std::vector<std::string> warnings;
     /// When set, called for each computed material with DIR/NAME.png (brdftool compute --preview
     /// passes preview::write_preview; the service does not depend on the preview library).
-    std::function<void(const SolvedMaterial&, const std::filesystem::path&)> preview;
+    std::function<void(const model::SolvedMaterial&, const std::filesystem::path&)> preview;
 };
 
 struct MaterialOutcome {

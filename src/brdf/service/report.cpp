@@ -15,12 +15,12 @@
 
 namespace brdf::service {
 
-nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::string>& outputs) {
+nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std::string>& outputs) {
     using nlohmann::json;
     json samples = json::array();
     int max_orders = 0;
     double worst_residual = 0.0;
-    for (const Sample& s : m.samples) {
+    for (const model::WavelengthSolution& s : m.samples) {
         const auto& setup = s.reflection.setup();
         json iterations = json::array(), residuals = json::array();
         for (const auto& sol : s.reflection.solutions()) {
@@ -30,7 +30,7 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
         }
         max_orders = std::max(max_orders, setup.orders);
         json pigments = json::array();
-        for (const PigmentOptics& p : s.optics.pigments)
+        for (const model::PigmentOptics& p : s.optics.pigments)
             pigments.push_back({{"albedo", p.albedo}, {"g", p.g}, {"csca_um2", p.csca_um2}, {"cext_um2", p.cext_um2},
                                 {"number_density_per_um3", p.number_density_um3}, {"legendre", p.legendre},
                                 {"radius_nodes", p.radius_nodes}, {"mie_error_estimate", p.mie_error}});

@@ -1,4 +1,4 @@
-#include <brdf/service/table_fill.h>
+#include <brdf/model/table_fill.h>
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
@@ -9,7 +9,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace brdf::service {
+namespace brdf::model {
 namespace {
 
 constexpr int phase_table_points = 8192;
@@ -56,7 +56,7 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
     in.grid = e;
     std::vector<double> mu(static_cast<std::size_t>(e));
     for (int a = 0; a < e; ++a) mu[a] = std::cos(0.5 * std::numbers::pi * a / (e - 1));
-    for (const Sample& s : material.samples) in.orders = std::max(in.orders, s.reflection.orders());
+    for (const WavelengthSolution& s : material.samples) in.orders = std::max(in.orders, s.reflection.orders());
     in.fourier.assign(static_cast<std::size_t>(in.orders) * 3 * e * e, 0.0);
     in.phase_points = phase_table_points;
     in.fresnel_points = fresnel_table_points;
@@ -66,7 +66,7 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
                  [&](int k) { grids[k] = material.samples[k].reflection.order_grid(mu); });
     const double inv_sqrt_pi = 1.0 / std::sqrt(std::numbers::pi);
     for (std::size_t k = 0; k < material.samples.size(); ++k) {
-        const Sample& s = material.samples[k];
+        const WavelengthSolution& s = material.samples[k];
         const rte::Reflection& r = s.reflection;
         const rte::OrderGrid& g = grids[k];
         for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
@@ -160,4 +160,4 @@ formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
     return table;
 }
 
-} // namespace brdf::service
+} // namespace brdf::model

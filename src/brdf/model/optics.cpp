@@ -1,4 +1,4 @@
-#include <brdf/service/optics.h>
+#include <brdf/model/optics.h>
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace brdf::service {
+namespace brdf::model {
 
 SpectralOptics particulate_optics(const material::MaterialSpec& spec, double wavelength_nm, double mie_tolerance) {
     if (spec.layers.empty() || !spec.layers[0].binder || spec.layers[0].pigments.empty())
@@ -81,4 +81,4 @@ std::vector<double> analytic_phase(const material::MediumSpec& medium, double to
     throw InputError("unknown phase function type");
 }
 
-} // namespace brdf::service
+} // namespace brdf::model

@@ -4,10 +4,10 @@
 // fill_table_cpu (table_fill.h); the kernel computes what fill_value computes, formula for formula,
 // including the bin-centre geometry and the below-horizon test.
 
-#include <brdf/service/table_fill.h>
+#include <brdf/model/table_fill.h>
 #include <formats/table.h>
 
-namespace brdf::service {
+namespace brdf::model {
 
 /// Every cell of the table on the OpenCL device: cells whose bin centre has the incident or the
 /// outgoing direction on or below the horizon hold formats::BrdfTable::no_data in all three
@@ -19,4 +19,4 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in);
 /// fill_table_opencl or fill_table_cpu (on every core) by device.
 formats::BrdfTable fill_table(const FillInputs& in, Device device);
 
-} // namespace brdf::service
+} // namespace brdf::model

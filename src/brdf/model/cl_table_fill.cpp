@@ -1,7 +1,7 @@
 // Host side of kernels/table_fill.cl: packs FillInputs' arrays into one buffer of doubles, runs one
 // work-item per cell and reads the three channel planes straight into a formats::BrdfTable.
 
-#include <brdf/service/cl_table_fill.h>
+#include <brdf/model/cl_table_fill.h>
 
 #include <algorithm>
 #include <thread>
@@ -18,7 +18,7 @@
 #include <cstddef>
 #include <vector>
 
-namespace brdf::service {
+namespace brdf::model {
 
 static_assert(sizeof(FillParams) == 80);
 static_assert(offsetof(FillParams, fourier_offset) == 0);
@@ -128,4 +128,4 @@ formats::BrdfTable fill_table(const FillInputs& in, Device device) {
     return fill_table_cpu(in, available_cpus());
 }
 
-} // namespace brdf::service
+} // namespace brdf::model

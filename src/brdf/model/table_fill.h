@@ -9,12 +9,12 @@
 // wavelength from a fine table of the phase function, with each wavelength's own refraction.
 // FillInputs is everything a cell needs; the OpenCL kernel and the C++ reference read the same.
 
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
 #include <formats/table.h>
 
 #include <vector>
 
-namespace brdf::service {
+namespace brdf::model {
 
 struct FillInputs {
     int grid = 0;   ///< E: zenith angles theta_a = a / (E - 1) * 90 degrees, a = 0 .. E - 1
@@ -44,4 +44,4 @@ Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi)
 /// Every cell, on `threads` CPU threads (the C++ reference of the table-fill kernel).
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads);
 
-} // namespace brdf::service
+} // namespace brdf::model

@@ -6,21 +6,21 @@
 #include <brdf/material/spec.h>
 #include <brdf/rte/dipole.h>
 #include <brdf/rte/reflection.h>
-#include <brdf/service/optics.h>
+#include <brdf/model/optics.h>
 
 #include <array>
 #include <optional>
 #include <string>
 #include <vector>
 
-namespace brdf::service {
+namespace brdf::model {
 
 using Rgb = std::array<double, 3>;
 
 enum class Device { OpenCL, Cpu };
 
 /// Numerical settings chosen for a requested relative BRDF error (the spec's accuracy).
-struct Settings {
+struct NumericalSettings {
     double tolerance = 1e-4;
     int streams = 32;               ///< starting point; grown by the convergence check up to max_streams
     int max_streams = 64;
@@ -31,9 +31,9 @@ struct Settings {
     rte::Method method = rte::Method::Fast;
     bool select_wavelengths = true; ///< solve only the wavelengths select_wavelengths() keeps
 };
-Settings settings_for(double tolerance);
+NumericalSettings settings_for(double tolerance);
 
-struct Sample {
+struct WavelengthSolution {
     double wavelength_nm = 0.0; ///< 0 for a channel of an analytic medium
     Rgb weight{};               ///< contribution to r, g, b
     SpectralOptics optics;
@@ -50,8 +50,8 @@ struct StageSeconds {
 
 struct SolvedMaterial {
     material::MaterialSpec spec;
-    Settings settings;
-    std::vector<Sample> samples;
+    NumericalSettings settings;
+    std::vector<WavelengthSolution> samples;
     std::string device; ///< "opencl: DEVICE NAME" or "cpu"
     std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
     /// Relative BRDF difference between the chosen stream count and the next larger one on the
@@ -85,6 +85,6 @@ void fit_into_gamut(SolvedMaterial& material);
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device);
-SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const Settings& settings);
+SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings);
 
-} // namespace brdf::service
+} // namespace brdf::model

@@ -9,7 +9,7 @@
 
 #include <vector>
 
-namespace brdf::service {
+namespace brdf::model {
 
 struct PigmentOptics {
     double albedo = 0.0, g = 0.0;
@@ -37,4 +37,4 @@ SpectralOptics particulate_optics(const material::MaterialSpec& spec, double wav
 /// coefficients (2l + 1) g^l fall below `tolerance` of beta_0.
 std::vector<double> analytic_phase(const material::MediumSpec& medium, double tolerance);
 
-} // namespace brdf::service
+} // namespace brdf::model

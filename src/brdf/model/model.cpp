@@ -1,4 +1,4 @@
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
 
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
@@ -11,7 +11,7 @@
 #include <optional>
 #include <cmath>
 
-namespace brdf::service {
+namespace brdf::model {
 namespace {
 
 // What the pipeline computes so far: one semi-infinite layer under no or a smooth interface, in
@@ -39,9 +39,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-Rgb weighted(const std::vector<Sample>& samples, auto&& value) {
+Rgb weighted(const std::vector<WavelengthSolution>& samples, auto&& value) {
     Rgb out{0.0, 0.0, 0.0};
-    for (const Sample& s : samples) {
+    for (const WavelengthSolution& s : samples) {
         const double v = value(s);
         for (int c = 0; c < 3; ++c) out[c] += s.weight[c] * v;
     }
@@ -75,7 +75,7 @@ rte::Reflection solve_one(const SpectralOptics& o, rte::ReflectionSettings rs, i
     return rte::Reflection(std::move(setup), std::move(solutions));
 }
 
-int choose_streams(const std::vector<SpectralOptics>& optics, const rte::ReflectionSettings& rs, const Settings& st,
+int choose_streams(const std::vector<SpectralOptics>& optics, const rte::ReflectionSettings& rs, const NumericalSettings& st,
                    double& estimate) {
     // The hardest samples: the most forward-peaked phase function and the highest albedo.
     std::vector<std::size_t> probes;
@@ -196,11 +196,11 @@ SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, 
     return out;
 }
 
-Settings settings_for(double tolerance) {
+NumericalSettings settings_for(double tolerance) {
     // Streams from the measured worst isotropic error of Gauss-in-mu Nystrom evaluation, angles 0 to
     // 89.9 degrees (docs/quadrature-study.md): 2.0e-3 at 8, 5.7e-4 at 16, 1.6e-4 at 24, 4.3e-5 at 32,
     // 3.1e-6 at 48, 2.2e-7 at 64.
-    Settings s;
+    NumericalSettings s;
     s.tolerance = tolerance;
     s.streams = tolerance >= 3e-3   ? 8
                 : tolerance >= 6e-4 ? 16
@@ -221,12 +221,12 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device)
     return solve_material(spec, device, settings_for(spec.accuracy.tolerance));
 }
 
-SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const Settings& settings) {
+SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings) {
     check_supported(spec);
     SolvedMaterial out;
     out.spec = spec;
     out.settings = settings;
-    const Settings& st = out.settings;
+    const NumericalSettings& st = out.settings;
     rte::ReflectionSettings rs;
     rs.streams = st.streams;
     rs.order_tolerance = st.order_tolerance;
@@ -315,7 +315,7 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
         for (const auto& s : mine)
             if (!s.converged)
                 log::warn(spec.name, ": order solve did not converge (residual ", s.residual, ")");
-        out.samples.push_back(Sample{optics[k].wavelength_nm, weights[k], optics[k],
+        out.samples.push_back(WavelengthSolution{optics[k].wavelength_nm, weights[k], optics[k],
                                      rte::Reflection(std::move(setups[k]), std::move(mine)), std::nullopt});
         if (spec.model == material::Model::Dipole) {
             const SpectralOptics& o = optics[k];
@@ -336,7 +336,7 @@ void fit_into_gamut(SolvedMaterial& m) {
     // reflectance (diffuse + mirror) in [0, 1] at the report's incidence angles.
     const Rgb luma{0.2126, 0.7152, 0.0722};
     std::vector<std::array<double, 4>> reflectance; // per sample: at 0, 30, 60, 80 degrees
-    for (const Sample& s : m.samples) {
+    for (const WavelengthSolution& s : m.samples) {
         std::array<double, 4> r{};
         const double angles[4] = {0.0, 30.0, 60.0, 80.0};
         for (int a = 0; a < 4; ++a) {
@@ -368,7 +368,7 @@ void fit_into_gamut(SolvedMaterial& m) {
         const double mid = 0.5 * (lo + hi);
         (fits(mid) ? lo : hi) = mid;
     }
-    for (Sample& s : m.samples) {
+    for (WavelengthSolution& s : m.samples) {
         const double y = luma[0] * s.weight[0] + luma[1] * s.weight[1] + luma[2] * s.weight[2];
         for (double& w : s.weight) w = y + lo * (w - y);
     }
@@ -379,19 +379,19 @@ void fit_into_gamut(SolvedMaterial& m) {
 Rgb SolvedMaterial::brdf(double theta_i, double theta_o, double phi) const {
     const double mi = std::cos(theta_i), mo = std::cos(theta_o);
     if (mi <= 0.0 || mo <= 0.0) return {0.0, 0.0, 0.0};
-    return weighted(samples, [&](const Sample& s) {
+    return weighted(samples, [&](const WavelengthSolution& s) {
         return s.dipole ? s.dipole->brdf(mi, mo, phi) : s.reflection.brdf(mi, mo, phi);
     });
 }
 
 Rgb SolvedMaterial::albedo(double theta_i) const {
     const double mi = std::cos(theta_i);
-    return weighted(samples, [&](const Sample& s) { return s.dipole ? s.dipole->albedo(mi) : s.reflection.albedo(mi); });
+    return weighted(samples, [&](const WavelengthSolution& s) { return s.dipole ? s.dipole->albedo(mi) : s.reflection.albedo(mi); });
 }
 
 Rgb SolvedMaterial::mirror(double theta_i) const {
     const double mi = std::cos(theta_i);
-    return weighted(samples, [&](const Sample& s) { return s.dipole ? s.dipole->mirror(mi) : s.reflection.mirror(mi); });
+    return weighted(samples, [&](const WavelengthSolution& s) { return s.dipole ? s.dipole->mirror(mi) : s.reflection.mirror(mi); });
 }
 
-} // namespace brdf::service
+} // namespace brdf::model
