@@ -184,13 +184,25 @@ def seed_pair(*key):
     return int.from_bytes(digest[:8], "little"), int.from_bytes(digest[8:16], "little")
 
 
+def splitmix64(x):
+    """SplitMix64 finaliser (Steele, Lea and Flood 2014) on numpy uint64 arrays, modulo 2^64."""
+    with np.errstate(over="ignore"):
+        x = x + np.uint64(0x9E3779B97F4A7C15)
+        x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        return x ^ (x >> np.uint64(31))
+
+
 def make_rng(lanes_per_key, keys):
-    """PCG32 for len(keys) consecutive blocks of lanes; block b seeded from keys[b], lane i of a
-    block on stream seq_b + i (distinct streams within a block, unrelated seeds across blocks)."""
+    """PCG32 for len(keys) consecutive blocks of lanes, block b seeded from keys[b]. Every lane's
+    state and stream come through SplitMix64: with plain consecutive seeds (PCG32's own
+    arange offsets) the lanes' states form a lattice at every step, the paths of one batch are
+    correlated and the per-path variance no longer predicts the batch means' (measured: 0.5-0.9)."""
     local = np.tile(np.arange(lanes_per_key, dtype=np.uint64), len(keys))
     pairs = np.array([seed_pair(*k) for k in keys], dtype=np.uint64)
-    states = np.repeat(pairs[:, 0], lanes_per_key) + local
-    seqs = np.repeat(pairs[:, 1], lanes_per_key) + local
+    with np.errstate(over="ignore"):
+        states = splitmix64(np.repeat(pairs[:, 0], lanes_per_key) + local)
+        seqs = splitmix64(np.repeat(pairs[:, 1], lanes_per_key) + local)
     rng = mi.PCG32(len(local))
     rng.seed(mi.UInt64(states), mi.UInt64(seqs))
     return rng
@@ -713,23 +725,47 @@ def run_case(alpha, omega, g, settings, run, tag="main", theta_os=None):
     return {"alpha": alpha, "omega": omega, "g": g, "values": rows, "tasks": tasks}, where
 
 
-def check_boundary_nee(wheres):
+def check_boundary_nee(wheres, cases):
     """Our estimator (next-event estimation at volume vertices, the light's refraction sampled in
     importance mode) against the one of Mitsuba's stock volpath (next-event estimation through the
     BSDF's radiance-mode eval() where a path meets the boundary from below), on the same paths. The
-    second is much noisier but shares none of the first one's next-event code (importance-mode
-    sampling, transmittance exp(-|z|/|v_z|), the 1/|v_z|)."""
-    items, seen = [], set()
-    for where in wheres:
-        for (est, k) in where.values():
-            if (est["name"], k) not in seen:
-                seen.add((est["name"], k))
-                items.append(([(est["boundary_nee_check"], k, 1.0)], 0.0, 0.0))
-    s, _ = z_check(items, "body: volume-vertex NEE vs volpath-style boundary-vertex NEE")
-    rel = [est["boundary_nee_check"]["boundary_nee_se"][k] / est["mean"][k]
-           for where in wheres for (est, k) in where.values()]
-    s["boundary_nee_rel_se_median"] = float(np.median(rel))
-    return s
+    second shares none of the first one's next-event code (importance-mode sampling, transmittance
+    exp(-|z|/|v_z|), the 1/|v_z|) but is heavy-tailed (per-path kurtosis ~2000 at alpha 0.1: the
+    peaked eval()), so its per-value error bars are unreliable (docs/monte-carlo.md). The test is
+    therefore on the mean relative difference over each case's values, an average of hundreds of
+    batch means, with its se from the batch covariances of the differences."""
+    rel, rel_se, per_value = [], [], []
+    for where, case in zip(wheres, cases):
+        tasks = {}
+        for est, k in where.values():
+            tasks.setdefault(est["name"], (est, set()))[1].add(k)
+        means, variances = [], []
+        for est, ks in tasks.values():
+            ks = sorted(ks)
+            w = np.zeros(len(est["mean"]))
+            w[ks] = 1.0 / (len(ks) * np.asarray(est["mean"])[ks])
+            check = est["boundary_nee_check"]
+            means.append(float(w @ np.asarray(check["mean"])))
+            variances.append(float(w @ np.asarray(check["cov"]) @ w))
+            per_value += [check["mean"][k] / math.sqrt(check["cov"][k][k]) for k in ks]
+        rel.append(float(np.mean(means)))
+        rel_se.append(math.sqrt(sum(variances)) / len(variances))
+        print(f"  alpha {case['alpha']} omega {case['omega']} g {case['g']}: (ours - volpath-style) / "
+              f"ours = {rel[-1]:+.2%} +- {rel_se[-1]:.2%}")
+    z = np.array(rel) / np.array(rel_se)
+    chi2 = float(np.mean(z * z))
+    bound = 1.0 + 4.0 * math.sqrt(2.0 / len(z))
+    ok = bool(np.max(np.abs(z)) < MAX_ABS_Z and chi2 < bound)
+    print(f"  body: volume-vertex NEE vs volpath-style boundary-vertex NEE, mean relative difference "
+          f"per case: max |z| {np.max(np.abs(z)):.2f}, chi2/n {chi2:.2f} (bound {bound:.2f}) -> "
+          f"{'ok' if ok else 'FAILED'}; per value (not a criterion) max |z| "
+          f"{np.max(np.abs(per_value)):.2f}, chi2/n {np.mean(np.square(per_value)):.2f}", flush=True)
+    return {"cases": [{"alpha": c["alpha"], "omega": c["omega"], "g": c["g"], "rel_diff": r,
+                       "rel_diff_se": s} for c, r, s in zip(cases, rel, rel_se)],
+            "max_abs_z": float(np.max(np.abs(z))), "max_abs_z_bound": MAX_ABS_Z,
+            "chi2_per_case": chi2, "chi2_bound": bound,
+            "per_value_max_abs_z": float(np.max(np.abs(per_value))),
+            "per_value_chi2": float(np.mean(np.square(per_value))), "pass": ok}
 
 
 def check_system_reciprocity(wheres):
@@ -759,21 +795,25 @@ def check_repeat(settings, run, first_where):
 
 
 def check_spread(cases, batches):
-    """Error bars from batch means vs from the per-path spread: with B batches their ratio scatters
-    by about 1 / sqrt(2 (B - 1)) around 1; a heavy tail would make it wide and skewed."""
+    """Error bars from batch means vs from the per-path spread: with B independent batches of
+    independent paths their ratio scatters by about 1 / sqrt(2 (B - 1)) around 1. The values of one
+    estimate share paths, so the mean ratio is tested with one average per estimate."""
     ratios = np.array([r[8] for c in cases for r in c["values"]])
+    per_task = [np.mean([r[8] for r in c["values"] if r[1] == t["theta_o_deg"]])
+                for c in cases for t in c["tasks"]]
     rel = np.array([r[7] / r[6] for c in cases for r in c["values"]])
     width = 1.0 / math.sqrt(2.0 * (batches - 1))
-    ok = bool(abs(ratios.mean() - 1.0) < 0.1 and ratios.min() > 1 - 4.5 * width
+    mean_bound = 4.0 * width / math.sqrt(len(per_task))
+    ok = bool(abs(np.mean(per_task) - 1.0) < mean_bound and ratios.min() > 1 - 4.5 * width
               and ratios.max() < 1 + 5 * width)
-    print(f"  error bars: batch-mean se / per-path se mean {ratios.mean():.3f}, range "
-          f"[{ratios.min():.2f}, {ratios.max():.2f}] over {len(ratios)} values (expected scatter "
-          f"{width:.2f}) -> {'ok' if ok else 'FAILED'}; body relative se max {rel.max():.2%}, "
-          f"median {np.median(rel):.2%}")
-    return {"ratio_mean": float(ratios.mean()), "ratio_min": float(ratios.min()),
-            "ratio_max": float(ratios.max()), "expected_scatter": width,
-            "body_rel_se_max": float(rel.max()), "body_rel_se_median": float(np.median(rel)),
-            "pass": ok}
+    print(f"  error bars: batch-mean se / per-path se mean {np.mean(per_task):.3f} (1 +- "
+          f"{mean_bound:.3f} allowed), range [{ratios.min():.2f}, {ratios.max():.2f}] over "
+          f"{len(ratios)} values (expected scatter {width:.2f}) -> {'ok' if ok else 'FAILED'}; body "
+          f"relative se max {rel.max():.2%}, median {np.median(rel):.2%}")
+    return {"ratio_mean": float(np.mean(per_task)), "ratio_mean_bound": mean_bound,
+            "ratio_min": float(ratios.min()), "ratio_max": float(ratios.max()),
+            "expected_scatter": width, "body_rel_se_max": float(rel.max()),
+            "body_rel_se_median": float(np.median(rel)), "pass": ok}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -882,7 +922,7 @@ def main():
     repeat_index = settings["cases"].index(REPEAT_CASE)
     checks["repeat_run"] = check_repeat(settings, run, wheres[repeat_index])
     checks["system_reciprocity"] = check_system_reciprocity(wheres)
-    checks["volpath_style_estimator"] = check_boundary_nee(wheres)
+    checks["volpath_style_estimator"] = check_boundary_nee(wheres, cases)
     checks["error_bar_spread"] = check_spread(cases, settings["main"]["batches"])
     failed = [name for name, c in checks.items() if not c["pass"]]
     out = {
