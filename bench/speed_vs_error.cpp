@@ -112,7 +112,7 @@ Row rte_method(const model::SolvedMaterial& base, rte::Method method, int max_it
     std::vector<rte::Reflection> refl;
     int unconverged = 0, orders = 0;
     for (const model::WavelengthSolution& s : base.samples) {
-        rte::StackSetup setup = rte::setup_reflection(s.optics.medium, rte::Interface{s.optics.binder_index}, rs);
+        rte::StackSetup setup = rte::setup_reflection(model::make_stack(s.optics, base.spec.surface), rs);
         const auto problems = rte::order_problems(setup);
         auto sol = rte::solve_orders_cpu(problems, method, rs.control, threads());
         for (const auto& o : sol) unconverged += o.converged ? 0 : 1;
@@ -140,7 +140,7 @@ Row dipole_method(const model::SolvedMaterial& base, const Values& ref) {
     const double t0 = now();
     std::vector<rte::Dipole> d;
     for (const model::WavelengthSolution& s : base.samples)
-        d.emplace_back(s.optics.medium.omega, s.optics.g, s.optics.binder_index, s.optics.medium.beta);
+        d.emplace_back(s.optics.top().medium.omega, s.optics.top().g, s.reflection.setup().layers[0].index, s.optics.top().medium.beta);
     const Values v = at_angles([&](double ti, double to, double ph) {
         Rgb out{0, 0, 0};
         for (std::size_t k = 0; k < d.size(); ++k) {

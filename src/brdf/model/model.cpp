@@ -14,26 +14,33 @@
 namespace brdf::model {
 namespace {
 
-// What the pipeline computes so far: one semi-infinite layer under no or a smooth interface, in
-// Rec.709, into MERL and EXR tables. The spec format already describes more (docs/spec.md); until
-// that physics lands, such a spec is refused here, naming what is missing, instead of being
-// computed as something else.
+// What the pipeline computes so far: layer stacks under no or a smooth interface, in Rec.709, into
+// MERL and EXR tables. The spec format already describes more (docs/spec.md); until that lands, such
+// a spec is refused here, naming what is missing, instead of being computed as something else.
 void check_supported(const material::MaterialSpec& spec) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     const auto refuse = [&](const std::string& what) {
         throw InputError(cat(who, ": ", what, " not supported yet"));
     };
     if (spec.layers.empty()) refuse("a material without layers is");
-    if (spec.layers.size() > 1) refuse("stacks of several layers (\"layers\") are");
-    if (!spec.layers[0].semi_infinite())
-        refuse("finite layers (\"thickness_um\", \"optical_depth\", \"substrate\") are");
     if (spec.surface.kind == material::Surface::Rough)
         refuse("rough surfaces (\"roughness\", \"gloss\", \"satin\", \"matte\") are");
     if (spec.colorspace != material::ColorSpace::Rec709)
         refuse("colour spaces other than \"rec709\" are");
     for (const std::string& f : spec.outputs)
         if (f != "merl" && f != "exr") refuse(cat("the output \"", f, "\" is"));
+    if (spec.model == material::Model::Dipole && (spec.layers.size() > 1 || !spec.layers[0].semi_infinite()))
+        throw InputError(cat(who, ": \"model\": \"dipole\" is a semi-infinite comparison model; it has no films "
+                                  "or stacks (remove \"model\" or the thickness)"));
 }
+
+// Whether the spec is solved per colour channel (every layer an analytic medium) rather than per
+// wavelength of its spectrum.
+bool analytic(const material::MaterialSpec& spec) {
+    return std::all_of(spec.layers.begin(), spec.layers.end(), [](const material::LayerSpec& l) { return l.medium.has_value(); });
+}
+
+bool coloured(const std::array<double, 3>& a) { return a[0] != a[1] || a[1] != a[2]; }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -67,22 +74,29 @@ double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
     return worst;
 }
 
-rte::Reflection solve_one(const SpectralOptics& o, rte::ReflectionSettings rs, int streams) {
+rte::Reflection solve_one(const rte::Stack& stack, rte::ReflectionSettings rs, int streams) {
     rs.streams = streams;
-    rte::StackSetup setup = rte::setup_reflection(o.medium, rte::Interface{o.binder_index}, rs);
+    rte::StackSetup setup = rte::setup_reflection(stack, rs);
     const auto problems = rte::order_problems(setup);
     auto solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, available_cpus());
     return rte::Reflection(std::move(setup), std::move(solutions));
 }
 
-int choose_streams(const std::vector<SpectralOptics>& optics, const rte::ReflectionSettings& rs, const NumericalSettings& st,
-                   double& estimate) {
-    // The hardest samples: the most forward-peaked phase function and the highest albedo.
+int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<rte::Stack>& stacks,
+                   const rte::ReflectionSettings& rs, const NumericalSettings& st, double& estimate) {
+    // The hardest samples: the most forward-peaked phase function and the highest albedo of any layer.
+    const auto most = [](const SpectralOptics& o, auto&& value) {
+        double v = 0.0;
+        for (const LayerOptics& l : o.layers) v = std::max(v, value(l));
+        return v;
+    };
+    const auto peak = [&](std::size_t k) { return most(optics[k], [](const LayerOptics& l) { return std::abs(l.g); }); };
+    const auto brightness = [&](std::size_t k) { return most(optics[k], [](const LayerOptics& l) { return l.medium.omega; }); };
     std::vector<std::size_t> probes;
     std::size_t peaked = 0, bright = 0;
     for (std::size_t k = 0; k < optics.size(); ++k) {
-        if (std::abs(optics[k].g) > std::abs(optics[peaked].g)) peaked = k;
-        if (optics[k].medium.omega > optics[bright].medium.omega) bright = k;
+        if (peak(k) > peak(peaked)) peaked = k;
+        if (brightness(k) > brightness(bright)) bright = k;
     }
     probes.push_back(peaked);
     if (bright != peaked) probes.push_back(bright);
@@ -95,8 +109,8 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const rte::Reflect
         estimate = 0.0;
         std::vector<std::optional<rte::Reflection>> at_next(probes.size());
         for (std::size_t p = 0; p < probes.size(); ++p) {
-            if (!at_n[p]) at_n[p] = solve_one(optics[probes[p]], rs, n);
-            at_next[p] = solve_one(optics[probes[p]], rs, next);
+            if (!at_n[p]) at_n[p] = solve_one(stacks[probes[p]], rs, n);
+            at_next[p] = solve_one(stacks[probes[p]], rs, next);
             estimate = std::max(estimate, disagreement(*at_n[p], *at_next[p]));
         }
         if (estimate <= st.tolerance) return n;
@@ -113,22 +127,31 @@ SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, 
     const std::size_t n = optics.size();
     SpectralSelection out;
     if (n == 0) return out;
-    // What the BRDF is made of, per wavelength: the similarity parameter sqrt((1 - omega) /
+    // What the BRDF is made of, per wavelength and layer: the similarity parameter sqrt((1 - omega) /
     // (1 - omega g)) sets the multiply scattered level (van de Hulst 1980), omega p(Theta) at a
-    // spread of scattering angles the single scattering, and the binder index the Fresnel factors.
-    // Each must be reproduced by the interpolation to within a third of the tolerance (relative for
-    // the phase function values); measured against solving every wavelength by the
-    // PipelineSpectral test.
+    // spread of scattering angles the single scattering, the index the Fresnel factors and a finite
+    // layer's transmission exp(-tau) how much of what lies below shows through. Each must be
+    // reproduced by the interpolation to within a third of the tolerance (relative for the phase
+    // function values); measured against solving every wavelength by the PipelineSpectral test.
     constexpr int angles = 7;
+    struct Feature {
+        double value;
+        bool relative;
+    };
     const auto feature = [&](std::size_t k) {
-        const double om = optics[k].medium.omega, g = optics[k].g;
-        std::array<double, 2 + angles> f{std::sqrt(std::max(0.0, (1.0 - om) / (1.0 - om * g))), optics[k].binder_index};
-        for (int a = 0; a < angles; ++a)
-            f[2 + a] = om * rte::phase_value(optics[k].medium.beta, std::cos(std::numbers::pi * a / (angles - 1)));
+        std::vector<Feature> f;
+        for (const LayerOptics& l : optics[k].layers) {
+            const double om = l.medium.omega, g = l.g;
+            f.push_back({std::sqrt(std::max(0.0, (1.0 - om) / (1.0 - om * g))), false});
+            f.push_back({l.index, false});
+            if (l.finite()) f.push_back({std::exp(-l.optical_depth), false});
+            for (int a = 0; a < angles; ++a)
+                f.push_back({om * rte::phase_value(l.medium.beta, std::cos(std::numbers::pi * a / (angles - 1))), true});
+        }
         return f;
     };
-    const auto allowed = [&](const auto& fa, const auto& fb, int q) {
-        return q < 2 ? tolerance / 3.0 : tolerance / 3.0 * std::min(std::abs(fa[q]), std::abs(fb[q]));
+    const auto allowed = [&](const std::vector<Feature>& fa, const std::vector<Feature>& fb, std::size_t q) {
+        return fa[q].relative ? tolerance / 3.0 * std::min(std::abs(fa[q].value), std::abs(fb[q].value)) : tolerance / 3.0;
     };
     const auto lambda = [&](std::size_t k) { return optics[k].wavelength_nm; };
     // Quadratic Lagrange weights of nodes a, c, b at wavelength x.
@@ -163,7 +186,8 @@ SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, 
             const auto l = lagrange(a, c, b, lambda(j));
             const auto fj = feature(j);
             for (std::size_t q = 0; q < fj.size(); ++q)
-                if (std::abs(fj[q] - (l[0] * fa[q] + l[1] * fc[q] + l[2] * fb[q])) > allowed(fa, fb, static_cast<int>(q)))
+                if (std::abs(fj[q].value - (l[0] * fa[q].value + l[1] * fc[q].value + l[2] * fb[q].value)) >
+                    allowed(fa, fb, q))
                     good = false;
         }
         if (good) {
@@ -217,6 +241,70 @@ NumericalSettings settings_for(double tolerance) {
     return s;
 }
 
+MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& st) {
+    const std::string who = spec.source.empty() ? spec.name : spec.source;
+    MaterialOptics out;
+    std::vector<SpectralOptics>& optics = out.optics;
+    std::vector<Rgb>& weights = out.weights;
+    const bool rgb_substrate = spec.substrate && coloured(spec.substrate->albedo);
+    if (analytic(spec)) {
+        bool grey = !rgb_substrate;
+        for (const material::LayerSpec& l : spec.layers) grey = grey && l.medium->grey;
+        const int channels = grey ? 1 : 3;
+        for (int c = 0; c < channels; ++c) {
+            optics.push_back(analytic_optics(spec, c, st.order_tolerance));
+            weights.push_back(grey ? Rgb{1.0, 1.0, 1.0} : Rgb{c == 0 ? 1.0 : 0.0, c == 1 ? 1.0 : 0.0, c == 2 ? 1.0 : 0.0});
+        }
+    } else {
+        for (std::size_t k = 0; k < spec.layers.size(); ++k)
+            if (spec.layers[k].medium && !spec.layers[k].medium->grey)
+                throw InputError(cat(who, ": layers[", k, "]: an analytic medium in a stack with binder layers is "
+                                          "solved per wavelength and needs one (grey) albedo, not [r, g, b]"));
+        const auto wavelengths = spec.spectrum.wavelengths_nm();
+        const auto rgb = spec.spectrum.rgb_weights();
+        optics.resize(wavelengths.size());
+        // Wavelengths are independent: split them over the cores.
+        parallel_for(static_cast<int>(wavelengths.size()), available_cpus(),
+                     [&](int k) { optics[k] = spectral_optics(spec, wavelengths[k], st.mie_tolerance); });
+        std::vector<Rgb> all(rgb.begin(), rgb.end());
+        const SpectralSelection pick =
+            select_wavelengths(optics, all, st.select_wavelengths ? st.tolerance : 0.0);
+        std::vector<SpectralOptics> kept;
+        for (std::size_t k : pick.solved) kept.push_back(std::move(optics[k]));
+        optics = std::move(kept);
+        weights = pick.weights;
+        out.wavelengths_interpolated = all.size() - pick.solved.size();
+        if (rgb_substrate) {
+            // A coloured substrate under a spectral film: each output channel sees the substrate's
+            // albedo of that channel (as an RGB renderer would), so each wavelength is solved once
+            // per channel with that channel's weight only.
+            std::vector<SpectralOptics> split;
+            std::vector<Rgb> split_weights;
+            for (std::size_t k = 0; k < optics.size(); ++k)
+                for (int c = 0; c < 3; ++c) {
+                    split.push_back(optics[k]);
+                    split.back().substrate_albedo = spec.substrate->albedo[static_cast<std::size_t>(c)];
+                    Rgb w{0.0, 0.0, 0.0};
+                    w[c] = weights[k][c];
+                    split_weights.push_back(w);
+                }
+            optics = std::move(split);
+            weights = std::move(split_weights);
+        }
+    }
+    // The spec's limit on the phase function's Legendre series (material::SpecLimits): the order
+    // matrices and the table's Fourier sums grow with it. Known only now, from the optics.
+    for (const SpectralOptics& o : optics)
+        for (const LayerOptics& l : o.layers)
+            if (l.medium.beta.size() > spec.limits.max_legendre_terms)
+                throw LimitError(cat(who, ": the phase function's Legendre series has ", l.medium.beta.size(),
+                                     " terms", o.wavelength_nm > 0.0 ? cat(" at ", o.wavelength_nm, " nm") : "",
+                                     ", more than the limit of ", spec.limits.max_legendre_terms,
+                                     "; to override, set \"limits\": {\"max_legendre_terms\": ",
+                                     l.medium.beta.size(), "} in the spec"));
+    return out;
+}
+
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device) {
     return solve_material(spec, device, settings_for(spec.accuracy.tolerance));
 }
@@ -233,50 +321,15 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     rs.method = st.method;
     rs.control.tolerance = st.solver_tolerance;
 
-    // 1. Optics per wavelength (or per channel of an analytic medium).
+    // 1. Optics per wavelength (or per channel of an analytic material), every layer.
     auto t0 = std::chrono::steady_clock::now();
-    std::vector<SpectralOptics> optics;
-    std::vector<Rgb> weights;
-    if (spec.layers[0].medium) {
-        const material::MediumSpec& m = *spec.layers[0].medium;
-        const std::vector<double> beta = analytic_phase(m, 1e-3 * st.order_tolerance);
-        const int channels = m.grey ? 1 : 3;
-        for (int c = 0; c < channels; ++c) {
-            SpectralOptics o;
-            o.binder_index = (spec.surface.kind == material::Surface::Smooth && m.index) ? *m.index : 1.0;
-            o.medium = {m.albedo[c], beta};
-            o.g = m.g;
-            optics.push_back(std::move(o));
-            weights.push_back(m.grey ? Rgb{1.0, 1.0, 1.0} : Rgb{c == 0 ? 1.0 : 0.0, c == 1 ? 1.0 : 0.0, c == 2 ? 1.0 : 0.0});
-        }
-    } else {
-        const auto wavelengths = spec.spectrum.wavelengths_nm();
-        const auto rgb = spec.spectrum.rgb_weights();
-        optics.resize(wavelengths.size());
-        // Wavelengths are independent: split them over the cores.
-        parallel_for(static_cast<int>(wavelengths.size()), available_cpus(),
-                     [&](int k) { optics[k] = particulate_optics(spec, wavelengths[k], st.mie_tolerance); });
-        if (spec.surface.kind == material::Surface::None)
-            for (auto& o : optics) o.binder_index = 1.0;
-        std::vector<Rgb> all(rgb.begin(), rgb.end());
-        const SpectralSelection pick =
-            select_wavelengths(optics, all, st.select_wavelengths ? st.tolerance : 0.0);
-        std::vector<SpectralOptics> kept;
-        for (std::size_t k : pick.solved) kept.push_back(std::move(optics[k]));
-        optics = std::move(kept);
-        weights = pick.weights;
-        out.wavelengths_interpolated = all.size() - pick.solved.size();
-    }
-    // The spec's limit on the phase function's Legendre series (material::SpecLimits): the order
-    // matrices and the table's Fourier sums grow with it. Known only now, from the optics.
-    for (const SpectralOptics& o : optics)
-        if (o.medium.beta.size() > spec.limits.max_legendre_terms)
-            throw LimitError(cat(spec.source.empty() ? spec.name : spec.source,
-                                 ": the phase function's Legendre series has ", o.medium.beta.size(),
-                                 " terms", o.wavelength_nm > 0.0 ? cat(" at ", o.wavelength_nm, " nm") : "",
-                                 ", more than the limit of ", spec.limits.max_legendre_terms,
-                                 "; to override, set \"limits\": {\"max_legendre_terms\": ",
-                                 o.medium.beta.size(), "} in the spec"));
+    const std::string who = spec.source.empty() ? spec.name : spec.source;
+    MaterialOptics mo = material_optics(spec, st);
+    std::vector<SpectralOptics>& optics = mo.optics;
+    std::vector<Rgb>& weights = mo.weights;
+    out.wavelengths_interpolated = mo.wavelengths_interpolated;
+    std::vector<rte::Stack> stacks;
+    for (const SpectralOptics& o : optics) stacks.push_back(make_stack(o, spec.surface));
     out.seconds.optics = seconds_since(t0);
 
     // 2. Streams: the table in settings_for is calibrated on isotropic scattering without an
@@ -285,45 +338,53 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     // stream counts agree within the tolerance, or the cap is reached; the last difference is the
     // reported error estimate.
     t0 = std::chrono::steady_clock::now();
-    rs.streams = choose_streams(optics, rs, st, out.error_estimate);
+    rs.streams = choose_streams(optics, stacks, rs, st, out.error_estimate);
     out.settings.streams = rs.streams;
     if (out.error_estimate > st.tolerance)
         log::warn(spec.name, ": accuracy not reached at the stream cap (", st.max_streams, "): estimated error ",
                   out.error_estimate, " > tolerance ", st.tolerance,
                   " (a phase function too peaked for delta-M at this cost; see the report)");
 
-    // 3. Every order of every sample in one batch.
+    // 3. Every order of every sample's semi-infinite layer in one batch on the device; the finite
+    // layers (slab eigen solutions, rte/slab.h) and the adding are solved on the host, one sample per
+    // core, when each Reflection is made.
     std::vector<rte::StackSetup> setups;
     std::vector<rte::OrderProblem> problems;
-    for (const SpectralOptics& o : optics) {
-        setups.push_back(rte::setup_reflection(o.medium, rte::Interface{o.binder_index}, rs));
+    std::vector<std::size_t> first_problem;
+    for (const rte::Stack& stack : stacks) {
+        setups.push_back(rte::setup_reflection(stack, rs));
+        first_problem.push_back(problems.size());
         for (auto& p : rte::order_problems(setups.back())) problems.push_back(std::move(p));
     }
+    first_problem.push_back(problems.size());
     std::vector<rte::OrderSolution> solutions;
     if (device == Device::OpenCL) {
         auto ctx = cl::Context::shared(); // throws DeviceError naming the fault
         out.device = "opencl: " + ctx->info().name;
-        solutions = rte::solve_orders_opencl(problems, rs.method, rs.control);
+        if (!problems.empty()) solutions = rte::solve_orders_opencl(problems, rs.method, rs.control);
     } else {
         out.device = "cpu";
         solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, available_cpus());
     }
-    std::size_t next = 0;
-    for (std::size_t k = 0; k < setups.size(); ++k) {
-        std::vector<rte::OrderSolution> mine(solutions.begin() + next, solutions.begin() + next + setups[k].orders);
-        next += setups[k].orders;
-        for (const auto& s : mine)
-            if (!s.converged)
-                log::warn(spec.name, ": order solve did not converge (residual ", s.residual, ")");
+    for (const auto& s : solutions)
+        if (!s.converged) log::warn(spec.name, ": order solve did not converge (residual ", s.residual, ")");
+    std::vector<std::optional<rte::Reflection>> reflections(setups.size());
+    parallel_for(static_cast<int>(setups.size()), available_cpus(), [&](int k) {
+        std::vector<rte::OrderSolution> mine(solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k]),
+                                             solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k + 1]));
+        reflections[k].emplace(std::move(setups[k]), std::move(mine));
+    });
+    for (std::size_t k = 0; k < reflections.size(); ++k) {
         out.samples.push_back(WavelengthSolution{optics[k].wavelength_nm, weights[k], optics[k],
-                                     rte::Reflection(std::move(setups[k]), std::move(mine)), std::nullopt});
+                                                 std::move(*reflections[k]), std::nullopt});
         if (spec.model == material::Model::Dipole) {
-            const SpectralOptics& o = optics[k];
-            out.samples.back().dipole.emplace(o.medium.omega, o.g, o.binder_index, o.medium.beta);
+            const LayerOptics& o = optics[k].top();
+            const double n = out.samples.back().reflection.setup().layers[0].index;
+            out.samples.back().dipole.emplace(o.medium.omega, o.g, n, o.medium.beta);
         }
     }
     out.seconds.solve = seconds_since(t0);
-    if (!spec.layers[0].medium) fit_into_gamut(out);
+    if (!analytic(spec)) fit_into_gamut(out);
     return out;
 }
 

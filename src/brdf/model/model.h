@@ -78,6 +78,15 @@ struct SpectralSelection {
 SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, const std::vector<Rgb>& weights,
                                      double tolerance);
 
+/// The optics of a spec ready to solve: per solved wavelength (or colour channel) every layer, with
+/// the colour weights (wavelengths skipped by select_wavelengths folded onto their neighbours).
+struct MaterialOptics {
+    std::vector<SpectralOptics> optics;
+    std::vector<Rgb> weights;
+    std::size_t wavelengths_interpolated = 0;
+};
+MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& settings);
+
 /// Brings an out-of-gamut colour into linear Rec.709 by scaling every colour weight's chroma about
 /// its luminance (same factor for all wavelengths: the map stays linear); sets gamut_scale.
 void fit_into_gamut(SolvedMaterial& material);

@@ -3,6 +3,7 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/version.h>
+#include <brdf/model/film.h>
 
 #include <atomic>
 #include <cmath>
@@ -29,20 +30,41 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
             worst_residual = std::max(worst_residual, sol.residual);
         }
         max_orders = std::max(max_orders, setup.orders);
-        json pigments = json::array();
-        for (const model::PigmentOptics& p : s.optics.pigments)
-            pigments.push_back({{"albedo", p.albedo}, {"g", p.g}, {"csca_um2", p.csca_um2}, {"cext_um2", p.cext_um2},
-                                {"number_density_per_um3", p.number_density_um3}, {"legendre", p.legendre},
-                                {"radius_nodes", p.radius_nodes}, {"mie_error_estimate", p.mie_error}});
-        json entry = {{"albedo", s.optics.medium.omega},
-                      {"g", s.optics.g},
-                      {"legendre", s.optics.medium.beta.size()},
-                      {"binder_index", s.optics.binder_index},
+        const auto pigments_of = [](const model::LayerOptics& l) {
+            json pigments = json::array();
+            for (const model::PigmentOptics& p : l.pigments)
+                pigments.push_back({{"albedo", p.albedo}, {"g", p.g}, {"csca_um2", p.csca_um2}, {"cext_um2", p.cext_um2},
+                                    {"number_density_per_um3", p.number_density_um3}, {"legendre", p.legendre},
+                                    {"radius_nodes", p.radius_nodes}, {"mie_error_estimate", p.mie_error}});
+            return pigments;
+        };
+        // The top layer's optics at the top level (as for a single layer); every layer's under
+        // "layers" when there is more than one or a finite one.
+        const model::LayerOptics& top = s.optics.top();
+        const json pigments = pigments_of(top);
+        json entry = {{"albedo", top.medium.omega},
+                      {"g", top.g},
+                      {"legendre", top.medium.beta.size()},
+                      {"binder_index", top.index},
                       {"weight_rgb", s.weight},
                       {"delta_m_fraction", setup.layers.front().truncated.f},
                       {"fourier_orders", setup.orders},
                       {"iterations", iterations},
                       {"residuals", residuals}};
+        if (s.optics.layers.size() > 1 || top.finite()) {
+            json layers = json::array();
+            for (std::size_t k = 0; k < s.optics.layers.size(); ++k) {
+                const model::LayerOptics& l = s.optics.layers[k];
+                json layer = {{"albedo", l.medium.omega}, {"g", l.g}, {"legendre", l.medium.beta.size()},
+                              {"index", setup.layers[k].index}, {"delta_m_fraction", setup.layers[k].truncated.f}};
+                if (l.finite()) layer["optical_depth"] = l.optical_depth;
+                if (l.extinction_per_um > 0.0) layer["extinction_per_um"] = l.extinction_per_um;
+                if (!l.pigments.empty()) layer["pigments"] = pigments_of(l);
+                layers.push_back(layer);
+            }
+            entry["layers"] = layers;
+            if (top.finite() || s.optics.layers.back().finite()) entry["substrate_albedo"] = s.optics.substrate_albedo;
+        }
         if (s.wavelength_nm > 0.0) entry["wavelength_nm"] = s.wavelength_nm;
         if (!pigments.empty()) entry["pigments"] = pigments;
         samples.push_back(entry);
@@ -52,7 +74,7 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
         const double t = deg * std::numbers::pi / 180.0;
         albedo.push_back({{"theta_i_deg", deg}, {"diffuse_rgb", m.albedo(t)}, {"mirror_rgb", m.mirror(t)}});
     }
-    return {
+    json report = {
         {"name", m.spec.name},
         {"generator", std::string(generator_string)},
         {"spec", m.spec.resolved},
@@ -83,6 +105,27 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
                      {"write", m.seconds.write}}},
         {"warnings", m.spec.warnings},
     };
+    if (const auto film = model::film_report(m)) {
+        json per_wavelength = json::array();
+        for (std::size_t k = 0; k < m.samples.size(); ++k) {
+            json depth = json::array();
+            for (double t : film->optical_depth[k]) depth.push_back(t < 0.0 ? json(nullptr) : json(t));
+            json entry = {{"optical_depth", depth}, {"diffuse_transmittance", film->diffuse_transmittance[k]}};
+            if (m.samples[k].wavelength_nm > 0.0) entry["wavelength_nm"] = m.samples[k].wavelength_nm;
+            else entry["weight_rgb"] = m.samples[k].weight;
+            per_wavelength.push_back(entry);
+        }
+        report["film"] = {
+            {"per_wavelength", per_wavelength},
+            {"contrast_ratio", film->contrast_ratio},
+            {"hiding_thickness_um", film->hiding_thickness_um ? json(*film->hiding_thickness_um) : json(nullptr)},
+            {"note", "contrast_ratio: luminance Y of the diffuse reflectance at normal incidence (specular "
+                     "excluded) over black divided by Y over a white substrate of albedo 0.80 (ISO 6504-3, "
+                     "ASTM D2805); hiding_thickness_um: the thickness of this film at which it reaches 0.98 "
+                     "(one pigmented layer only); diffuse_transmittance: of the whole film, diffuse light from "
+                     "air into the substrate (docs/films.md)"}};
+    }
+    return report;
 }
 
 } // namespace brdf::service
