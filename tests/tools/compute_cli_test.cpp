@@ -237,6 +237,61 @@ TEST(ComputeCli, AccuracyAndForceFlags) {
     EXPECT_EQ(count_of(bad.err, "\n"), 1u) << bad.err;
 }
 
+// A film as a user writes it: the thickness matters (the issue's complaint: three volume fractions
+// gave one table), the report carries the paint maker's numbers, and `hiding` prints them.
+TEST(ComputeCli, FilmsReportContrastAndHidingPrintsIt) {
+    TempDir dir;
+    const auto film = [](const std::string& name, double vf, const std::string& rest) {
+        return cat(R"({"name": ")", name, R"(", "binder": {"material": "pmma"}, "spectrum": "rgb", "accuracy": "draft",
+                   "pigments": [{"material": "hematite", "volume_fraction": )", vf,
+                   R"(, "size": {"distribution": "lognormal", "r_g_um": 0.12, "sigma_g": 1.4}}])", rest, "}");
+    };
+    write_file(dir / "films.json",
+               cat(R"({"materials": [)", film("dilute", 1e-5, R"(, "thickness_um": 25, "substrate": {"albedo": 0.8})"),
+                   ", ", film("dense", 0.05, R"(, "thickness_um": 25, "substrate": {"albedo": 0.8})"), ", ",
+                   film("halfspace", 0.05, ""), "]}"));
+    const ProcessResult c = run_tool("brdftool", {"compute", (dir / "films.json").string(), "-o", (dir / "out").string(),
+                                                  "--device", "cpu"});
+    ASSERT_EQ(c.status, 0) << c.err;
+    const auto dilute = nlohmann::json::parse(read_file(dir / "out/dilute.report.json"));
+    const auto dense = nlohmann::json::parse(read_file(dir / "out/dense.report.json"));
+    const auto half = nlohmann::json::parse(read_file(dir / "out/halfspace.report.json"));
+    EXPECT_FALSE(half.contains("film"));
+    ASSERT_TRUE(dense.contains("film")) << dense.dump();
+    // Nearly clear over white: the substrate shows; the dense red film hides most of it.
+    EXPECT_LT(dilute["film"]["contrast_ratio"].get<double>(), 0.05);
+    EXPECT_GT(dense["film"]["contrast_ratio"].get<double>(), 0.5);
+    const double t_dilute = dilute["film"]["per_wavelength"][0]["diffuse_transmittance"];
+    const double t_dense = dense["film"]["per_wavelength"][0]["diffuse_transmittance"];
+    EXPECT_GT(t_dilute, 0.85);
+    EXPECT_LT(t_dense, t_dilute);
+    EXPECT_NEAR(dense["film"]["per_wavelength"][0]["optical_depth"][0].get<double>(),
+                25.0 * dense["wavelengths"][0]["layers"][0]["extinction_per_um"].get<double>(), 1e-9);
+    EXPECT_GT(std::abs(dilute["directional_albedo"][0]["diffuse_rgb"][1].get<double>() -
+                       dense["directional_albedo"][0]["diffuse_rgb"][1].get<double>()),
+              0.1);
+
+    const ProcessResult h = run_tool("brdftool", {"hiding", (dir / "films.json").string(), "--material", "dense",
+                                                  "--thickness-um", "1,10,100", "--json"});
+    ASSERT_EQ(h.status, 0) << h.err;
+    const auto j = nlohmann::json::parse(h.out);
+    ASSERT_EQ(j["contrast_ratio"].size(), 3u);
+    EXPECT_LT(j["contrast_ratio"][0]["contrast_ratio"].get<double>(), j["contrast_ratio"][1]["contrast_ratio"].get<double>());
+    EXPECT_LT(j["contrast_ratio"][1]["contrast_ratio"].get<double>(), j["contrast_ratio"][2]["contrast_ratio"].get<double>());
+    ASSERT_TRUE(j["hiding_thickness_um"].is_number());
+    const ProcessResult text = run_tool("brdftool", {"hiding", (dir / "films.json").string(), "--material", "dense"});
+    EXPECT_NE(text.out.find("hiding thickness (contrast ratio 0.98): "), std::string::npos) << text.out;
+
+    const ProcessResult bad = run_tool("brdftool", {"hiding", (dir / "films.json").string(), "--material", "dense",
+                                                    "--thickness-um", "-3"});
+    EXPECT_EQ(bad.status, 3) << bad.err;
+    EXPECT_NE(bad.err.find("--thickness-um values must be positive micrometres (got -3)"), std::string::npos) << bad.err;
+    write_file(dir / "medium.json", R"({"name": "m", "medium": {"albedo": 0.9, "optical_depth": 1}})");
+    const ProcessResult analytic = run_tool("brdftool", {"hiding", (dir / "medium.json").string()});
+    EXPECT_EQ(analytic.status, 3) << analytic.err;
+    EXPECT_NE(analytic.err.find("hiding needs one pigmented binder layer"), std::string::npos) << analytic.err;
+}
+
 /// true when this machine has an OpenCL device the project can use.
 bool opencl_here() { return run_tool("test_cl_probe", {"available"}).out == "1\n"; }
 

@@ -22,5 +22,6 @@ Subcommand add_info_command(CLI::App& root);
 Subcommand add_diff_command(CLI::App& root);
 Subcommand add_render_command(CLI::App& root);
 Subcommand add_lobes_command(CLI::App& root);
+Subcommand add_hiding_command(CLI::App& root);
 
 } // namespace brdf::tool

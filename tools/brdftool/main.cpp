@@ -69,6 +69,7 @@ int main(int argc, char** argv) {
     commands.push_back(tool::add_diff_command(app));
     commands.push_back(tool::add_render_command(app));
     commands.push_back(tool::add_lobes_command(app));
+    commands.push_back(tool::add_hiding_command(app));
 
     // `brdftool help [CMD]` prints the same usage as `brdftool CMD --help`.
     std::string help_topic;

@@ -27,18 +27,8 @@ bool is_spec_file(const std::filesystem::path& path) {
     return ext == ".json";
 }
 
-Source load_source(const std::filesystem::path& path, const std::string& material, model::Device device,
-                   const std::string& recorded) {
-    Source s;
-    if (!is_spec_file(path)) {
-        if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
-        const formats::TableFormat format = formats::detect_format(path);
-        if (format == formats::TableFormat::Fourier)
-            s.fourier = formats::read_fourier_bsdf(path);
-        else
-            s.table = formats::read_table(path, format, spectral_to_rgb());
-        return s;
-    }
+material::MaterialSpec choose_spec(const std::filesystem::path& path, const std::string& material,
+                                   const std::string& recorded) {
     std::vector<material::MaterialSpec> specs = material::load_specs(path);
     std::string names;
     for (const auto& m : specs) names += cat(names.empty() ? "" : ", ", m.name);
@@ -57,7 +47,22 @@ Source load_source(const std::filesystem::path& path, const std::string& materia
                                  material.empty() ? " (the name the table records)" : "", "; it holds ",
                                  names, material.empty() ? "; choose one with --material NAME" : ""));
     }
-    s.model = model::solve_material(*chosen, device);
+    return *chosen;
+}
+
+Source load_source(const std::filesystem::path& path, const std::string& material, model::Device device,
+                   const std::string& recorded) {
+    Source s;
+    if (!is_spec_file(path)) {
+        if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
+        const formats::TableFormat format = formats::detect_format(path);
+        if (format == formats::TableFormat::Fourier)
+            s.fourier = formats::read_fourier_bsdf(path);
+        else
+            s.table = formats::read_table(path, format, spectral_to_rgb());
+        return s;
+    }
+    s.model = model::solve_material(choose_spec(path, material, recorded), device);
     return s;
 }
 

@@ -54,4 +54,10 @@ std::string recorded_material(const std::filesystem::path& table_path, const for
 
 bool is_spec_file(const std::filesystem::path& path);
 
+/// The material of a spec file: the one named `material`, or `recorded` when the file holds several
+/// and `material` is empty, or its only one. A name that is not there is an InputError listing the
+/// names there are.
+material::MaterialSpec choose_spec(const std::filesystem::path& path, const std::string& material,
+                                   const std::string& recorded = {});
+
 } // namespace brdf::tool
