@@ -24,10 +24,9 @@ rte::Reflection order_zero(const material::MaterialSpec& spec, SpectralOptics o,
     rte::ReflectionSettings rs;
     rs.streams = streams;
     rs.order_tolerance = std::numeric_limits<double>::infinity(); // m = 0 only
-    rte::StackSetup setup = rte::setup_reflection(make_stack(o, spec.surface), rs);
-    const auto problems = rte::order_problems(setup);
-    auto solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, 1);
-    return rte::Reflection(std::move(setup), std::move(solutions));
+    const rte::Stack stack = make_stack(o, spec.surface);
+    // A film has no semi-infinite layer: nothing for a device, the host solves it.
+    return std::move(solve_stacks({&stack, 1}, rs, Device::Cpu).front());
 }
 
 void require_film(const material::MaterialSpec& spec, std::optional<double> thickness_um) {

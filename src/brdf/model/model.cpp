@@ -74,16 +74,13 @@ double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
     return worst;
 }
 
-rte::Reflection solve_one(const rte::Stack& stack, rte::ReflectionSettings rs, int streams) {
-    rs.streams = streams;
-    rte::StackSetup setup = rte::setup_reflection(stack, rs);
-    const auto problems = rte::order_problems(setup);
-    auto solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, available_cpus());
-    return rte::Reflection(std::move(setup), std::move(solutions));
-}
-
 int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<rte::Stack>& stacks,
-                   const rte::ReflectionSettings& rs, const NumericalSettings& st, double& estimate) {
+                   const rte::ReflectionSettings& rs, const NumericalSettings& st, Device device, double& estimate) {
+    const auto solve_one = [&](const rte::Stack& stack, int streams) {
+        rte::ReflectionSettings at = rs;
+        at.streams = streams;
+        return std::move(solve_stacks({&stack, 1}, at, device).front());
+    };
     // The hardest samples: the most forward-peaked phase function and the highest albedo of any layer.
     const auto most = [](const SpectralOptics& o, auto&& value) {
         double v = 0.0;
@@ -109,8 +106,8 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
         estimate = 0.0;
         std::vector<std::optional<rte::Reflection>> at_next(probes.size());
         for (std::size_t p = 0; p < probes.size(); ++p) {
-            if (!at_n[p]) at_n[p] = solve_one(stacks[probes[p]], rs, n);
-            at_next[p] = solve_one(stacks[probes[p]], rs, next);
+            if (!at_n[p]) at_n[p] = solve_one(stacks[probes[p]], n);
+            at_next[p] = solve_one(stacks[probes[p]], next);
             estimate = std::max(estimate, disagreement(*at_n[p], *at_next[p]));
         }
         if (estimate <= st.tolerance) return n;
@@ -241,6 +238,43 @@ NumericalSettings settings_for(double tolerance) {
     return s;
 }
 
+std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, const rte::ReflectionSettings& rs,
+                                          Device device, std::string* device_name) {
+    // The semi-infinite layers' orders of every stack in one batch on the device; the finite layers
+    // (slab eigen solutions, rte/slab.h) and the adding on the host, one stack per core, when each
+    // Reflection is made.
+    std::vector<rte::StackSetup> setups;
+    std::vector<rte::OrderProblem> problems;
+    std::vector<std::size_t> first_problem;
+    for (const rte::Stack& stack : stacks) {
+        setups.push_back(rte::setup_reflection(stack, rs));
+        first_problem.push_back(problems.size());
+        for (auto& p : rte::order_problems(setups.back())) problems.push_back(std::move(p));
+    }
+    first_problem.push_back(problems.size());
+    std::vector<rte::OrderSolution> solutions;
+    if (device == Device::OpenCL) {
+        auto ctx = cl::Context::shared(); // throws DeviceError naming the fault
+        if (device_name) *device_name = "opencl: " + ctx->info().name;
+        if (!problems.empty()) solutions = rte::solve_orders_opencl(problems, rs.method, rs.control);
+    } else {
+        if (device_name) *device_name = "cpu";
+        solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, available_cpus());
+    }
+    for (const auto& s : solutions)
+        if (!s.converged) log::warn("order solve did not converge (residual ", s.residual, ")");
+    std::vector<std::optional<rte::Reflection>> made(setups.size());
+    parallel_for(static_cast<int>(setups.size()), available_cpus(), [&](int k) {
+        std::vector<rte::OrderSolution> mine(solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k]),
+                                             solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k + 1]));
+        made[k].emplace(std::move(setups[k]), std::move(mine));
+    });
+    std::vector<rte::Reflection> out;
+    out.reserve(made.size());
+    for (auto& r : made) out.push_back(std::move(*r));
+    return out;
+}
+
 MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& st) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     MaterialOptics out;
@@ -338,45 +372,18 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     // stream counts agree within the tolerance, or the cap is reached; the last difference is the
     // reported error estimate.
     t0 = std::chrono::steady_clock::now();
-    rs.streams = choose_streams(optics, stacks, rs, st, out.error_estimate);
+    rs.streams = choose_streams(optics, stacks, rs, st, device, out.error_estimate);
     out.settings.streams = rs.streams;
     if (out.error_estimate > st.tolerance)
         log::warn(spec.name, ": accuracy not reached at the stream cap (", st.max_streams, "): estimated error ",
                   out.error_estimate, " > tolerance ", st.tolerance,
                   " (a phase function too peaked for delta-M at this cost; see the report)");
 
-    // 3. Every order of every sample's semi-infinite layer in one batch on the device; the finite
-    // layers (slab eigen solutions, rte/slab.h) and the adding are solved on the host, one sample per
-    // core, when each Reflection is made.
-    std::vector<rte::StackSetup> setups;
-    std::vector<rte::OrderProblem> problems;
-    std::vector<std::size_t> first_problem;
-    for (const rte::Stack& stack : stacks) {
-        setups.push_back(rte::setup_reflection(stack, rs));
-        first_problem.push_back(problems.size());
-        for (auto& p : rte::order_problems(setups.back())) problems.push_back(std::move(p));
-    }
-    first_problem.push_back(problems.size());
-    std::vector<rte::OrderSolution> solutions;
-    if (device == Device::OpenCL) {
-        auto ctx = cl::Context::shared(); // throws DeviceError naming the fault
-        out.device = "opencl: " + ctx->info().name;
-        if (!problems.empty()) solutions = rte::solve_orders_opencl(problems, rs.method, rs.control);
-    } else {
-        out.device = "cpu";
-        solutions = rte::solve_orders_cpu(problems, rs.method, rs.control, available_cpus());
-    }
-    for (const auto& s : solutions)
-        if (!s.converged) log::warn(spec.name, ": order solve did not converge (residual ", s.residual, ")");
-    std::vector<std::optional<rte::Reflection>> reflections(setups.size());
-    parallel_for(static_cast<int>(setups.size()), available_cpus(), [&](int k) {
-        std::vector<rte::OrderSolution> mine(solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k]),
-                                             solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k + 1]));
-        reflections[k].emplace(std::move(setups[k]), std::move(mine));
-    });
+    // 3. Every sample, in one batch.
+    std::vector<rte::Reflection> reflections = solve_stacks(stacks, rs, device, &out.device);
     for (std::size_t k = 0; k < reflections.size(); ++k) {
         out.samples.push_back(WavelengthSolution{optics[k].wavelength_nm, weights[k], optics[k],
-                                                 std::move(*reflections[k]), std::nullopt});
+                                                 std::move(reflections[k]), std::nullopt});
         if (spec.model == material::Model::Dipole) {
             const LayerOptics& o = optics[k].top();
             const double n = out.samples.back().reflection.setup().layers[0].index;

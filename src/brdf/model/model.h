@@ -10,6 +10,7 @@
 
 #include <array>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -90,6 +91,13 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
 /// Brings an out-of-gamut colour into linear Rec.709 by scaling every colour weight's chroma about
 /// its luminance (same factor for all wavelengths: the map stays linear); sets gamut_scale.
 void fit_into_gamut(SolvedMaterial& material);
+
+/// The one entry that solves: every stack (one per sample) with the settings on the device. The
+/// semi-infinite layers' Fourier orders of all stacks go to the device in one batch (OpenCL or the
+/// C++ reference); the finite layers and the adding run on the host, one stack per core. Sets
+/// *device_name ("opencl: NAME" or "cpu") when given.
+std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, const rte::ReflectionSettings& settings,
+                                          Device device, std::string* device_name = nullptr);
 
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).
