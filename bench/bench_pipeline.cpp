@@ -4,9 +4,9 @@
 
 #include <brdf/material/spec.h>
 #include <brdf/core/error.h>
-#include <brdf/service/cl_table_fill.h>
-#include <brdf/service/model.h>
-#include <brdf/service/table_fill.h>
+#include <brdf/model/cl_table_fill.h>
+#include <brdf/model/model.h>
+#include <brdf/model/table_fill.h>
 
 #include <benchmark/benchmark.h>
 
@@ -24,9 +24,9 @@ material::MaterialSpec seed() { return material::parse_specs_text(seed_spec, "se
 
 void BM_SolveSeed(benchmark::State& state) {
     const auto spec = seed();
-    const auto device = state.range(0) ? service::Device::OpenCL : service::Device::Cpu;
+    const auto device = state.range(0) ? model::Device::OpenCL : model::Device::Cpu;
     for (auto _ : state) {
-        const service::SolvedMaterial m = service::solve_material(spec, device);
+        const model::SolvedMaterial m = model::solve_material(spec, device);
         state.counters["optics_s"] = m.seconds.optics;
         state.counters["solve_s"] = m.seconds.solve;
         state.counters["wavelengths"] = static_cast<double>(m.samples.size());
@@ -35,10 +35,10 @@ void BM_SolveSeed(benchmark::State& state) {
 BENCHMARK(BM_SolveSeed)->Arg(0)->Arg(1)->ArgName("opencl")->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_FillSeed(benchmark::State& state) {
-    const service::SolvedMaterial m = service::solve_material(seed(), service::Device::Cpu);
-    const service::FillInputs in = service::prepare_fill(m);
+    const model::SolvedMaterial m = model::solve_material(seed(), model::Device::Cpu);
+    const model::FillInputs in = model::prepare_fill(m);
     const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    for (auto _ : state) benchmark::DoNotOptimize(service::fill_table_cpu(in, threads));
+    for (auto _ : state) benchmark::DoNotOptimize(model::fill_table_cpu(in, threads));
     state.counters["orders"] = in.orders;
     state.counters["samples"] = in.samples;
 }
@@ -46,23 +46,23 @@ BENCHMARK(BM_FillSeed)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 // The same fill on the OpenCL device (one launch, one work-item per cell; includes the transfers).
 void BM_FillSeedOpenCL(benchmark::State& state) {
-    const service::SolvedMaterial m = service::solve_material(seed(), service::Device::Cpu);
-    const service::FillInputs in = service::prepare_fill(m);
+    const model::SolvedMaterial m = model::solve_material(seed(), model::Device::Cpu);
+    const model::FillInputs in = model::prepare_fill(m);
     try {
-        benchmark::DoNotOptimize(service::fill_table_opencl(in)); // build the program outside the timing
+        benchmark::DoNotOptimize(model::fill_table_opencl(in)); // build the program outside the timing
     } catch (const Error& e) {
         state.SkipWithError(e.what());
         return;
     }
-    for (auto _ : state) benchmark::DoNotOptimize(service::fill_table_opencl(in));
+    for (auto _ : state) benchmark::DoNotOptimize(model::fill_table_opencl(in));
     state.counters["orders"] = in.orders;
     state.counters["samples"] = in.samples;
 }
 BENCHMARK(BM_FillSeedOpenCL)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_PrepareFillSeed(benchmark::State& state) {
-    const service::SolvedMaterial m = service::solve_material(seed(), service::Device::Cpu);
-    for (auto _ : state) benchmark::DoNotOptimize(service::prepare_fill(m));
+    const model::SolvedMaterial m = model::solve_material(seed(), model::Device::Cpu);
+    for (auto _ : state) benchmark::DoNotOptimize(model::prepare_fill(m));
 }
 BENCHMARK(BM_PrepareFillSeed)->Unit(benchmark::kMillisecond)->Iterations(2);
 

@@ -48,11 +48,19 @@ rte::Streams gauss_theta(int n) { // theta Gauss on (0, pi/2), weight sin(theta)
 }
 
 rte::Reflection solve_with(const rte::Medium& medium, const rte::Streams& streams) {
-    rte::ReflectionSetup setup;
-    setup.medium = medium;
-    setup.truncated = rte::delta_m(medium, 2 * streams.size());
-    setup.streams = streams;
-    setup.orders = static_cast<int>(setup.truncated.scaled.beta.size());
+    // A half-space on a custom rule: the stack set up by hand (setup_stack would choose Gauss in mu).
+    rte::StackSetup setup;
+    setup.stack = rte::half_space(medium);
+    rte::LayerSetup layer;
+    layer.layer = setup.stack.layers.front();
+    layer.truncated = rte::delta_m(medium, 2 * streams.size());
+    layer.tau = layer.layer.tau;
+    layer.streams = streams;
+    for (double mu : streams.mu) layer.s.push_back(std::sqrt(1.0 - mu * mu));
+    layer.below_of.assign(streams.mu.size(), -1);
+    layer.orders = static_cast<int>(layer.truncated.scaled.beta.size());
+    setup.orders = layer.orders;
+    setup.layers.push_back(std::move(layer));
     const auto problems = rte::order_problems(setup);
     auto solutions = rte::solve_orders_cpu(problems, rte::Method::Doubling, {});
     return rte::Reflection(std::move(setup), std::move(solutions));

@@ -4,7 +4,7 @@
 // Cases: analytic media (isotropic and Henyey-Greenstein g = 0.5, 0.9, 0.99; omega = 0.9, 0.999, 1;
 // surface none) and the particulate materials of examples/catalogue.json with spectrum "rgb".
 // Methods:
-//   ours-draft / ours-default / ours-reference  service::solve_material at that accuracy
+//   ours-draft / ours-default / ours-reference  model::solve_material at that accuracy
 //                                                (Method::Fast; the whole pipeline, optics included)
 //   fixed-point   the seed paper's plain fixed-point iteration (Method::FixedPoint) at the default
 //                 accuracy's streams, capped at --max-iterations per order; "converged" says if every
@@ -22,8 +22,8 @@
 #include <brdf/material/spec.h>
 #include <brdf/rte/dipole.h>
 #include <brdf/rte/reflection.h>
-#include <brdf/service/model.h>
-#include <brdf/service/optics.h>
+#include <brdf/model/model.h>
+#include <brdf/model/optics.h>
 
 #include <nlohmann/json.hpp>
 
@@ -41,7 +41,7 @@
 #include <vector>
 
 using namespace brdf;
-using service::Rgb;
+using model::Rgb;
 
 namespace {
 
@@ -98,7 +98,7 @@ material::MaterialSpec with_accuracy(nlohmann::json doc, const nlohmann::json& a
 
 // Solves every sample's reflection with `method` on the default solve's optics (the same streams
 // and order truncation) and evaluates the colour BRDF.
-Row rte_method(const service::SolvedMaterial& base, rte::Method method, int max_iterations, const Values& ref) {
+Row rte_method(const model::SolvedMaterial& base, rte::Method method, int max_iterations, const Values& ref) {
     Row row;
     row.method = method == rte::Method::FixedPoint ? "fixed-point" : "doubling";
     row.streams = base.settings.streams;
@@ -111,8 +111,8 @@ Row rte_method(const service::SolvedMaterial& base, rte::Method method, int max_
     rs.control.max_iterations = max_iterations;
     std::vector<rte::Reflection> refl;
     int unconverged = 0, orders = 0;
-    for (const service::Sample& s : base.samples) {
-        rte::ReflectionSetup setup = rte::setup_reflection(s.optics.medium, rte::Interface{s.optics.binder_index}, rs);
+    for (const model::WavelengthSolution& s : base.samples) {
+        rte::StackSetup setup = rte::setup_reflection(s.optics.medium, rte::Interface{s.optics.binder_index}, rs);
         const auto problems = rte::order_problems(setup);
         auto sol = rte::solve_orders_cpu(problems, method, rs.control, threads());
         for (const auto& o : sol) unconverged += o.converged ? 0 : 1;
@@ -134,12 +134,12 @@ Row rte_method(const service::SolvedMaterial& base, rte::Method method, int max_
     return row;
 }
 
-Row dipole_method(const service::SolvedMaterial& base, const Values& ref) {
+Row dipole_method(const model::SolvedMaterial& base, const Values& ref) {
     Row row;
     row.method = "dipole";
     const double t0 = now();
     std::vector<rte::Dipole> d;
-    for (const service::Sample& s : base.samples)
+    for (const model::WavelengthSolution& s : base.samples)
         d.emplace_back(s.optics.medium.omega, s.optics.g, s.optics.binder_index, s.optics.medium.beta);
     const Values v = at_angles([&](double ti, double to, double ph) {
         Rgb out{0, 0, 0};
@@ -155,7 +155,7 @@ Row dipole_method(const service::SolvedMaterial& base, const Values& ref) {
 }
 
 // Chandrasekhar's exact isotropic solution at the reference angles it tabulates (0, 30, 60 degrees).
-void check_isotropic_reference(double omega, const service::SolvedMaterial& ref) {
+void check_isotropic_reference(double omega, const model::SolvedMaterial& ref) {
     std::ifstream in(std::string(BRDF_SOURCE_DIR) + "/tests/reference/rte/chandrasekhar_h.json");
     if (!in) return;
     const auto j = nlohmann::json::parse(in);
@@ -182,19 +182,19 @@ void run_case(const std::string& name, const std::string& kind, const nlohmann::
     const auto solve = [&](const nlohmann::json& accuracy, double& seconds) {
         const material::MaterialSpec spec = with_accuracy(doc, accuracy);
         const double t0 = now();
-        service::SolvedMaterial m = service::solve_material(spec, service::Device::Cpu);
+        model::SolvedMaterial m = model::solve_material(spec, model::Device::Cpu);
         seconds = now() - t0;
         return m;
     };
     // The reference: 96 streams, fixed (the convergence check would grow forward-peaked cases to
     // 128 streams and hundreds of orders, minutes each); tight order and iteration tolerances.
     double tref = 0.0;
-    const service::SolvedMaterial ref = [&] {
+    const model::SolvedMaterial ref = [&] {
         const material::MaterialSpec spec = with_accuracy(doc, nlohmann::json{{"tolerance", 1e-7}});
-        service::Settings st = service::settings_for(1e-7);
+        model::NumericalSettings st = model::settings_for(1e-7);
         st.streams = st.max_streams = 96;
         const double t0 = now();
-        service::SolvedMaterial m = service::solve_material(spec, service::Device::Cpu, st);
+        model::SolvedMaterial m = model::solve_material(spec, model::Device::Cpu, st);
         tref = now() - t0;
         return m;
     }();
@@ -224,10 +224,10 @@ void run_case(const std::string& name, const std::string& kind, const nlohmann::
     rr.streams = ref.settings.streams;
     rr.seconds = tref;
     add(rr);
-    service::SolvedMaterial base;
+    model::SolvedMaterial base;
     for (const char* level : {"draft", "default", "reference"}) {
         double t = 0.0;
-        service::SolvedMaterial m = solve(level, t);
+        model::SolvedMaterial m = solve(level, t);
         const Values v = at_angles([&](double ti, double to, double ph) { return m.brdf(ti, to, ph); });
         Row r;
         r.method = std::string("ours-") + level;

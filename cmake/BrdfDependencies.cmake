@@ -48,6 +48,8 @@ endif()
 
 if(BRDF_BUILD_TESTS)
   brdf_require_package(GTest "googletest libgtest-dev")
+  # The formats tests run an independent numpy reader of the Fourier BSDF files.
+  brdf_require_package(Python3 "python3 python3-numpy" COMPONENTS Interpreter)
 endif()
 if(BRDF_BUILD_BENCH)
   brdf_require_package(benchmark "libbenchmark-dev")

@@ -1,10 +1,11 @@
 #pragma once
 // File handling shared by the table readers and writers (internal to brdf_formats).
 //   InputFile:  an open, regular, readable file with its size, closed on every path (RAII).
-//   AtomicFile: a temporary file beside the target that becomes the target only on commit()
-//               (fsync, rename, fsync of the folder), and is removed if commit() is never reached,
-//               so no reader ever sees a partial table.
+//   AtomicFile: core's (brdf/core/atomic_file.h): a temporary file beside the target that becomes
+//               the target only on commit(), so no reader ever sees a partial table.
 // Errors are brdf::IoError naming the path and the system's reason.
+
+#include <brdf/core/atomic_file.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -42,29 +43,8 @@ class InputFile {
     std::uint64_t m_size = 0;
 };
 
-class AtomicFile {
-  public:
-    /// Creates a temporary file in the folder of `target` (same file system, so the rename is
-    /// atomic).
-    explicit AtomicFile(const std::filesystem::path& target);
-    /// Removes the temporary file unless commit() succeeded.
-    ~AtomicFile();
-    AtomicFile(const AtomicFile&) = delete;
-    AtomicFile& operator=(const AtomicFile&) = delete;
-
-    const std::filesystem::path& target() const { return m_target; }
-    const std::filesystem::path& temporary() const { return m_temp; }
-    /// Writes all `n` bytes at `offset`; throws IoError naming the target.
-    void write_at(std::uint64_t offset, const void* data, std::size_t n);
-    /// fsync, close, rename over the target, fsync the folder. Throws IoError naming the target
-    /// (the temporary file is then removed by the destructor).
-    void commit();
-
-  private:
-    std::filesystem::path m_target;
-    std::filesystem::path m_temp;
-    int m_fd = -1;
-    bool m_committed = false;
-};
+/// Tables are written like every other file of the project: core's AtomicFile (temporary beside the
+/// target, fsync, rename, fsync of the folder).
+using AtomicFile = brdf::AtomicFile;
 
 } // namespace brdf::formats::detail

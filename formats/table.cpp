@@ -6,6 +6,7 @@
 #include <brdf/core/log.h>
 #include <brdf/core/quadrature.h>
 
+#include <cctype>
 #include <cmath>
 
 namespace brdf::formats {
@@ -13,6 +14,15 @@ namespace brdf::formats {
 const char* channel_name(int channel) {
     static const char* const names[3] = {"red", "green", "blue"};
     return channel >= 0 && channel < 3 ? names[channel] : "?";
+}
+
+std::string canonical_colorspace(std::string_view name) {
+    if (name == legacy_rec709_colorspace) return default_colorspace;
+    std::string lower(name);
+    for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    for (const char* known : {"rec709", "acescg", "rec2020"})
+        if (lower == known) return known;
+    return {};
 }
 
 BrdfTable::BrdfTable() {
@@ -84,6 +94,13 @@ Rgb lookup(const BrdfTable& table, double theta_i, double theta_o, double phi) {
 }
 
 Rgb directional_albedo(const BrdfTable& table, double theta_i, AlbedoQuadrature quadrature) {
+    return directional_albedo(
+        [&](double theta_o, double phi) { return lookup(table, theta_i, theta_o, phi); }, theta_i,
+        quadrature);
+}
+
+Rgb directional_albedo(const std::function<Rgb(double theta_o, double phi)>& brdf, double theta_i,
+                       AlbedoQuadrature quadrature) {
     if (quadrature.mu_points < 1 || quadrature.phi_points < 1 || quadrature.mu_points > 100000 ||
         quadrature.phi_points > 100000)
         throw InputError(cat("directional_albedo: quadrature of ", quadrature.mu_points, " x ",
@@ -97,7 +114,7 @@ Rgb directional_albedo(const BrdfTable& table, double theta_i, AlbedoQuadrature 
         const double theta_o = std::acos(mu.x[m]);
         Rgb ring{0.0, 0.0, 0.0};
         for (int n = 0; n < quadrature.phi_points; ++n) {
-            const Rgb f = lookup(table, theta_i, theta_o, (n + 0.5) * dphi);
+            const Rgb f = brdf(theta_o, (n + 0.5) * dphi);
             for (int c = 0; c < 3; ++c) ring[c] += f[c];
         }
         for (int c = 0; c < 3; ++c) rho[c] += mu.w[m] * mu.x[m] * ring[c] * dphi;

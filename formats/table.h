@@ -26,7 +26,16 @@ namespace brdf::formats {
 /// Red, green, blue; BRDF in 1/sr unless said otherwise.
 using Rgb = std::array<double, 3>;
 
-inline constexpr const char* default_colorspace = "linear Rec.709 (sRGB primaries), D65";
+/// BrdfTable::colorspace is one of "rec709" (linear Rec.709 / sRGB primaries, D65: the default),
+/// "acescg" (ACES AP1 primaries, ACES white point) or "rec2020" (ITU-R BT.2020 primaries, D65), the
+/// spec's "colorspace" values.
+inline constexpr const char* default_colorspace = "rec709";
+/// What tables said before the identifiers above (OpenEXR files written then hold it): rec709.
+inline constexpr const char* legacy_rec709_colorspace = "linear Rec.709 (sRGB primaries), D65";
+
+/// "rec709", "acescg" or "rec2020" for those names in any case and for the legacy string; empty
+/// for anything else.
+std::string canonical_colorspace(std::string_view name);
 
 /// "red", "green", "blue" for channel 0, 1, 2.
 const char* channel_name(int channel);
@@ -115,5 +124,9 @@ struct AlbedoQuadrature {
 /// d omega_o of the table (dimensionless, per channel), by table lookup (sample) at the nodes of
 /// `quadrature`; no-data cells count as 0. theta_i in radians, [0, pi/2).
 Rgb directional_albedo(const BrdfTable& table, double theta_i, AlbedoQuadrature quadrature = {});
+/// The same rule for any BRDF at this theta_i: brdf(theta_o, phi) in 1/sr (a Fourier BSDF's
+/// evaluate, say).
+Rgb directional_albedo(const std::function<Rgb(double theta_o, double phi)>& brdf, double theta_i,
+                       AlbedoQuadrature quadrature = {});
 
 } // namespace brdf::formats

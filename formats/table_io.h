@@ -1,27 +1,68 @@
 #pragma once
-// Tables by file name, and the statistics behind `brdftool info` and `brdftool diff`.
+// The one place that knows every table format: which one a file holds (by its magic bytes), which
+// one a file name asks for (by its extension), reading any of them as an RGB table; and the
+// statistics behind `brdftool info` and `brdftool diff`.
 
 #include <formats/table.h>
 
 #include <array>
 #include <cstddef>
 #include <filesystem>
+#include <functional>
+#include <span>
 
 namespace brdf::formats {
 
-enum class TableFormat { Merl, Exr };
+struct SpectralTable;
 
-/// "MERL .binary" or "OpenEXR".
+enum class TableFormat {
+    Merl,        ///< MERL .binary (formats/merl)
+    Exr,         ///< OpenEXR RGB table (formats/exr/exr.h)
+    SpectralExr, ///< OpenEXR spectral table, JCGT 2021 layout (formats/exr/spectral_exr.h)
+    Fourier,     ///< pbrt-v3 Fourier BSDF, SCATFUN v1 (formats/fourier)
+    RglTensor,   ///< RGL tensor file of Mitsuba 3 / pbrt-v4 `measured` (formats/rgl, not read here yet)
+};
+
+/// "MERL .binary", "OpenEXR", "spectral OpenEXR", "pbrt-v3 Fourier BSDF", "RGL tensor".
 const char* to_string(TableFormat format);
 
-/// The format named by the extension, case-insensitive: .binary -> Merl, .exr -> Exr. Anything else
-/// is an InputError naming the path and listing the supported extensions.
+/// The format a file name asks for, by extension, case-insensitive: .binary -> Merl,
+/// .spectral.exr -> SpectralExr, other .exr -> Exr, .rgl.bsdf -> RglTensor, other .bsdf -> Fourier.
+/// Anything else is an InputError naming the path and listing the supported extensions. Writers
+/// go by this.
 TableFormat table_format(const std::filesystem::path& path);
 
-/// read_merl or read_exr by extension.
-BrdfTable read_table(const std::filesystem::path& path);
-/// write_merl or write_exr by extension (checked before anything is written).
+/// The format a file holds, by its first bytes: "SCATFUN" -> Fourier; "tensor_file\0" ->
+/// RglTensor; the OpenEXR magic 0x762f3101 -> SpectralExr when a channel is a reflective spectral
+/// one (T.<wavelength>nm), else Exr; three int32 90 90 180 and exactly 34,992,012 bytes -> Merl
+/// (MERL has no magic). A file none of these recognise (a truncated MERL table, say) has the format
+/// of its extension, so that its reader names the fault; with an unknown extension too it is the
+/// InputError of table_format. Recognised content under another extension's name (a MERL table
+/// called paint.exr) is read as what it is, with a warning naming both. IoError when the file
+/// cannot be opened.
+TableFormat detect_format(const std::filesystem::path& path);
+
+/// Turns a spectral table into RGB (the weights live outside formats: brdftool passes those of
+/// brdf/material/spectrum.h).
+using SpectralToRgb = std::function<BrdfTable(const SpectralTable&)>;
+
+/// The table a file holds, whatever its format (detect_format): MERL and OpenEXR read as they are;
+/// a Fourier BSDF evaluated at the cell centres (tabulate_fourier); a spectral table through
+/// `spectral_to_rgb` (InputError naming the path without it). An RGL tensor file is an InputError
+/// (not read yet).
+BrdfTable read_table(const std::filesystem::path& path, const SpectralToRgb& spectral_to_rgb = {});
+/// The same for a format detect_format already gave (so that a misnamed file warns once).
+BrdfTable read_table(const std::filesystem::path& path, TableFormat format,
+                     const SpectralToRgb& spectral_to_rgb = {});
+/// write_merl or write_exr by extension (checked before anything is written); other formats are an
+/// InputError (they are made from the model, not from a table).
 void write_table(const std::filesystem::path& path, const BrdfTable& table);
+
+/// The RGB table of a spectral one: each cell sum_j weights[j] * plane_j (weights per wavelength,
+/// one Rgb each, in the order of table.wavelengths_nm), negative sums clamped to 0 with the number
+/// of clamped values logged; no-data cells stay no data. InputError when the counts differ.
+BrdfTable spectral_to_rgb(const SpectralTable& table, std::span<const Rgb> weights,
+                          const std::string& colorspace = default_colorspace);
 
 /// Statistics of one channel over the cells with data, BRDF in 1/sr; all 0 when there are none.
 struct ChannelStats {

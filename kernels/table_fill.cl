@@ -43,7 +43,7 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
     const FillParams p = *params_in;
     const long id = (long)get_global_id(0);
     if (id >= p.cell_count) return;
-    const long cell = p.first_cell + id;
+    const long cell = id;
 
     // formats::cell_indices and the bin centres.
     const int phi_k = (int)(cell % TF_PHI_D_BINS);
@@ -102,11 +102,12 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             cm_prev = cm;
             cm = next;
         }
-        // Single scattering with the full phase function, per sample (its own refraction).
+        // Single scattering with the full phase function, per sample and layer (its own refraction).
         const double sin_i = sqrt(max0_ref(1.0 - mu_i * mu_i)), sin_o = sqrt(max0_ref(1.0 - mu_o * mu_o));
         const int kp = p.phase_points, kf = p.fresnel_points;
         __global const double* index = data + p.index_offset;
         __global const double* weight = data + p.weight_offset;
+        __global const double* tau = data + p.tau_offset;
         for (int s = 0; s < p.samples; ++s) {
             const double n = index[s], inv_n2 = 1.0 / (n * n);
             const double ui = sqrt(1.0 - sin_i * sin_i * inv_n2), uo = sqrt(1.0 - sin_o * sin_o * inv_n2);
@@ -114,8 +115,9 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             const double phase =
                 lerp_table(data + p.phase_offset + (long)s * kp, kp, sqrt(0.5 * (1.0 - cos_scatter)));
             __global const double* t = data + p.transmission_offset + (long)s * kf;
-            const double factor = lerp_table(t, kf, mu_o) * lerp_table(t, kf, mu_i) / t[kf - 1];
-            const double v = factor * phase / (uo + ui);
+            const double factor = lerp_table(t, kf, mu_o) * lerp_table(t, kf, mu_i);
+            const double slab = isinf(tau[s]) ? 1.0 : -expm1(-tau[s] * (1.0 / uo + 1.0 / ui));
+            const double v = factor * phase / (uo + ui) * slab;
             out0 += weight[s * 3 + 0] * v;
             out1 += weight[s * 3 + 1] * v;
             out2 += weight[s * 3 + 2] * v;

@@ -21,8 +21,8 @@ typedef struct FillParams {
     brdf_i64 index_offset;        ///< FillInputs::index, samples
     brdf_i64 transmission_offset; ///< FillInputs::transmission, samples * fresnel_points
     brdf_i64 weight_offset;       ///< FillInputs::weight, samples * 3
-    brdf_i64 first_cell;          ///< this launch's global id 0 is this cell
-    brdf_i64 cell_count;          ///< cells of this launch (global ids past it do nothing)
+    brdf_i64 tau_offset;          ///< FillInputs::tau, samples
+    brdf_i64 cell_count;          ///< cells (global ids past it do nothing)
     brdf_i32 grid;                ///< E
     brdf_i32 orders;              ///< M
     brdf_i32 samples;             ///< S

@@ -6,6 +6,13 @@
 #include "format_test_util.h"
 #include "test_support.h"
 
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <ImfStandardAttributes.h>
+#include <ImfStringAttribute.h>
 #include <OpenImageIO/imageio.h>
 #include <half.h>
 
@@ -44,7 +51,14 @@ TEST(ExrFormat, OpenImageIOSeesTheDocumentedLayoutAndAttributes) {
     EXPECT_EQ(spec.get_string_attribute("compression"), "zip");
     EXPECT_EQ(spec.get_string_attribute("brdf.layout"), "merl-halfdiff-90x90x180");
     EXPECT_EQ(spec.get_string_attribute("brdf.units"), "1/sr");
-    EXPECT_EQ(spec.get_string_attribute("brdf.colorspace"), "linear Rec.709 (sRGB primaries), D65");
+    EXPECT_EQ(spec.get_string_attribute("brdf.colorspace"), "rec709");
+    // OpenEXR's standard chromaticities: Rec.709 primaries, D65.
+    const OIIO::ParamValue* chroma = spec.find_attribute("chromaticities");
+    ASSERT_TRUE(chroma);
+    ASSERT_EQ(chroma->type().size(), 8 * sizeof(float));
+    const float* xy = static_cast<const float*>(chroma->data());
+    const float rec709[8] = {0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};
+    for (int k = 0; k < 8; ++k) EXPECT_EQ(xy[k], rec709[k]) << k;
     EXPECT_EQ(spec.get_string_attribute("brdf.spec"), test::analytic_table().spec);
     EXPECT_EQ(spec.get_string_attribute("brdf.generator"), "formats tests");
     EXPECT_FALSE(in->seek_subimage(1, 0)); // one part
@@ -144,6 +158,67 @@ TEST(ExrFormat, OpenExrsOwnToolReadsTheFile) {
               std::string::npos)
         << r.out;
     EXPECT_NE(r.out.find("(0 0) - (179 8099)"), std::string::npos) << r.out;
+}
+
+// Each colour space gets OpenEXR's standard chromaticities attribute (read back with OpenEXR's own
+// API, not ours) and keeps brdf.colorspace; files of the old default string read as rec709.
+TEST(ExrFormat, ChromaticitiesFollowTheColourSpace) {
+    TempDir dir;
+    struct Case {
+        const char* colorspace;
+        std::array<float, 8> xy;
+    };
+    const Case cases[] = {
+        {"rec709", {0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f}},
+        {"acescg", {0.713f, 0.293f, 0.165f, 0.830f, 0.128f, 0.044f, 0.32168f, 0.33767f}},
+        {"rec2020", {0.708f, 0.292f, 0.170f, 0.797f, 0.131f, 0.046f, 0.3127f, 0.3290f}},
+    };
+    BrdfTable t; // zeros: small and fast
+    for (const Case& c : cases) {
+        t.colorspace = c.colorspace;
+        const fs::path p = dir / (std::string(c.colorspace) + ".exr");
+        write_exr(p, t);
+        Imf::InputFile file(p.c_str());
+        ASSERT_TRUE(Imf::hasChromaticities(file.header())) << c.colorspace;
+        const Imf::Chromaticities& got = Imf::chromaticities(file.header());
+        const float xy[8] = {got.red.x,  got.red.y,  got.green.x, got.green.y,
+                             got.blue.x, got.blue.y, got.white.x, got.white.y};
+        for (int k = 0; k < 8; ++k) EXPECT_EQ(xy[k], c.xy[k]) << c.colorspace << " " << k;
+        EXPECT_EQ(read_exr(p).colorspace, c.colorspace);
+    }
+    // The old default string: read as rec709, written as rec709 with its chromaticities.
+    test::ExrSpecimen old;
+    old.value = 0.0f;
+    old.attributes.push_back({"brdf.colorspace", "linear Rec.709 (sRGB primaries), D65"});
+    test::write_exr_specimen(dir / "old.exr", old);
+    EXPECT_EQ(read_exr(dir / "old.exr").colorspace, "rec709");
+    t.colorspace = legacy_rec709_colorspace;
+    write_exr(dir / "legacy.exr", t);
+    EXPECT_EQ(read_exr(dir / "legacy.exr").colorspace, "rec709");
+    // No brdf.colorspace but standard chromaticities of one of ours (another tool's file).
+    {
+        Imf::Header header(exr_width, exr_height);
+        header.channels().insert("R", Imf::Channel(Imf::FLOAT));
+        header.channels().insert("G", Imf::Channel(Imf::FLOAT));
+        header.channels().insert("B", Imf::Channel(Imf::FLOAT));
+        header.insert("brdf.layout", Imf::StringAttribute(exr_layout));
+        Imf::addChromaticities(header, Imf::Chromaticities({0.708f, 0.292f}, {0.170f, 0.797f},
+                                                           {0.131f, 0.046f}, {0.3127f, 0.3290f}));
+        std::vector<float> zero(cells, 0.0f);
+        Imf::FrameBuffer frame;
+        for (const char* ch : {"R", "G", "B"})
+            frame.insert(ch, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(zero.data()),
+                                        sizeof(float), sizeof(float) * exr_width));
+        Imf::OutputFile out((dir / "other.exr").c_str(), header);
+        out.setFrameBuffer(frame);
+        out.writePixels(exr_height);
+    }
+    EXPECT_EQ(read_exr(dir / "other.exr").colorspace, "rec2020");
+    // An unknown colour space is kept, without chromaticities.
+    t.colorspace = "my-space";
+    write_exr(dir / "mine.exr", t);
+    EXPECT_FALSE(Imf::hasChromaticities(Imf::InputFile((dir / "mine.exr").c_str()).header()));
+    EXPECT_EQ(read_exr(dir / "mine.exr").colorspace, "my-space");
 }
 
 // Half-float channels from another tool are accepted (converted by OpenEXR), attributes other than

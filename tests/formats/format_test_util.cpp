@@ -2,6 +2,8 @@
 
 #include "test_support.h"
 
+#include <formats/exr/spectral_exr.h>
+#include <formats/fourier/fourier.h>
 #include <formats/merl/merl.h>
 
 #include <ImfChannelList.h>
@@ -193,6 +195,82 @@ void write_exr_specimens(const std::filesystem::path& folder) {
     std::swap(bytes[0], bytes[3]);
     std::swap(bytes[1], bytes[2]);
     write_file(folder / "exr_wrong_endian.exr", bytes.substr(0, 4096));
+}
+
+// --- Fourier BSDF specimens -----------------------------------------------------------------------
+
+std::string fourier_specimen_bytes() {
+    const std::vector<double> mu{0.5, 1.0};
+    const auto series = [](double mu_i, double mu_o, std::span<double> out) {
+        // (0.2 + 0.1 c) / pi + s (0.05 - 0.05 cos phi + 0.01 cos 2 phi), s = (1 - mu_i^2)(1 - mu_o^2).
+        const double s = (1 - mu_i * mu_i) * (1 - mu_o * mu_o);
+        for (int c = 0; c < 3; ++c) {
+            out[c * 3 + 0] = (0.2 + 0.1 * c) / formats::pi + 0.05 * s;
+            out[c * 3 + 1] = -0.05 * s;
+            out[c * 3 + 2] = 0.01 * s;
+        }
+    };
+    formats::FourierBuildOptions options;
+    options.generator = "formats tests";
+    options.spec = R"({"name": "specimen"})";
+    const formats::FourierBsdf bsdf = formats::make_fourier_bsdf(mu, 3, series, options);
+    TempDir dir;
+    formats::write_fourier_bsdf(dir / "s.bsdf", bsdf);
+    return read_file(dir / "s.bsdf");
+}
+
+namespace {
+void store_u32_at(std::string& s, std::size_t offset, std::uint32_t v) {
+    for (int b = 0; b < 4; ++b) s.at(offset + b) = static_cast<char>((v >> (8 * b)) & 0xff);
+}
+} // namespace
+
+void write_fuzz_seeds(const std::filesystem::path& folder) {
+    std::filesystem::create_directories(folder / "fourier");
+    std::filesystem::create_directories(folder / "spectral_exr");
+    write_file(folder / "fourier" / "specimen.bsdf", fourier_specimen_bytes());
+    // One channel, a few more nodes and orders, foreign (layerlab-like) metadata.
+    const std::vector<double> mu{0.2, 0.6, 0.9};
+    const auto series = [](double mu_i, double mu_o, std::span<double> out) {
+        const double s = (1 - mu_i * mu_i) * (1 - mu_o * mu_o);
+        for (int c = 0; c < 3; ++c)
+            for (int m = 0; m < 4; ++m) out[c * 4 + m] = (m == 0 ? 0.1 : 0.02 * s / m);
+    };
+    formats::FourierBuildOptions options;
+    options.channels = 1;
+    formats::FourierBsdf grey = formats::make_fourier_bsdf(mu, 4, series, options);
+    grey.metadata = R"({"layers": [{"type": 1, "roughness": 0.2}]})";
+
+    formats::write_fourier_bsdf(folder / "fourier" / "grey_foreign_metadata.bsdf", grey);
+    // A spectral table of one wavelength, all zero (compresses to a few kB).
+    formats::SpectralTable zero({550.0});
+    zero.generator = "fuzz seed";
+    formats::write_spectral_exr(folder / "spectral_exr" / "zero_550nm.exr", zero);
+}
+
+std::vector<MerlSpecimen> fourier_specimens() {
+    const std::string valid = fourier_specimen_bytes();
+    // Layout of the specimen: 64-byte header, 6 nodes, 36 cdf values, 36 (offset, length) pairs.
+    constexpr std::size_t nodes = 6, table = 64 + 4 * nodes + 4 * nodes * nodes;
+    std::string wrong_magic = valid.substr(0, 64);
+    wrong_magic[6] = 'X';
+    std::string bad_offset = valid;
+    // Pair o = 5 (mu_o = 1), i = 0 (mu_i = -1): a reflection pair with a series; point it past the
+    // end of the coefficients.
+    store_u32_at(bad_offset, table + 8 * (5 * nodes + 0), 1000000);
+    std::string huge = valid.substr(0, 64);
+    store_u32_at(huge, 12, 0x7fffffff); // nMu
+    store_u32_at(huge, 16, 0x7fffffff); // nCoeffs
+    std::string nan = valid;
+    const std::size_t coefficients = table + 8 * nodes * nodes;
+    store_u32_at(nan, coefficients, 0x7fc00000u); // the first coefficient
+    return {
+        {"fourier_truncated.bsdf", valid.substr(0, valid.size() / 2)},
+        {"fourier_wrong_magic.bsdf", wrong_magic},
+        {"fourier_bad_offset.bsdf", bad_offset},
+        {"fourier_huge_counts.bsdf", huge},
+        {"fourier_nan.bsdf", nan},
+    };
 }
 
 } // namespace brdf::test

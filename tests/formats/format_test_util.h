@@ -78,6 +78,16 @@ struct MerlSpecimen {
 std::vector<MerlSpecimen> merl_specimens();
 void write_exr_specimens(const std::filesystem::path& folder);
 
+/// A small valid Fourier BSDF file (make_fourier_bsdf of a Lambertian + azimuthal lobe on the
+/// nodes 0.5, 1: 6 nodes, 3 orders, 3 channels), as bytes; deterministic.
+std::string fourier_specimen_bytes();
+/// The checked-in malformed Fourier BSDF files (name, bytes); make_specimens writes them.
+std::vector<MerlSpecimen> fourier_specimens();
+
+/// The fuzz seeds of fuzz_fourier and fuzz_spectral_exr: FOLDER/fourier/*.bsdf,
+/// FOLDER/spectral_exr/*.exr.
+void write_fuzz_seeds(const std::filesystem::path& folder);
+
 /// Records the largest single operator new request made between construction and destruction
 /// (this test binary replaces the global operator new).
 class AllocationProbe {

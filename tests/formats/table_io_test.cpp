@@ -20,13 +20,14 @@ TEST(TableIo, FormatFollowsTheExtension) {
     EXPECT_EQ(table_format("paint.Exr"), TableFormat::Exr);
     EXPECT_STREQ(to_string(TableFormat::Merl), "MERL .binary");
     EXPECT_STREQ(to_string(TableFormat::Exr), "OpenEXR");
+    EXPECT_EQ(table_format("paint.spectral.exr"), TableFormat::SpectralExr);
+    EXPECT_EQ(table_format("paint.fourier.bsdf"), TableFormat::Fourier);
+    EXPECT_EQ(table_format("paint.RGL.bsdf"), TableFormat::RglTensor);
     EXPECT_THROW_MESSAGE(
         table_format("paint.png"), InputError,
-        "paint.png: unsupported table format '.png' (supported: .binary (MERL), .exr "
-        "(OpenEXR))");
-    EXPECT_THROW_MESSAGE(
-        read_table("paint"), InputError,
-        "paint: unsupported table format '' (supported: .binary (MERL), .exr (OpenEXR))");
+        "paint.png: unsupported table format '.png' (supported: .binary (MERL), .exr (OpenEXR), "
+        ".spectral.exr (spectral OpenEXR), .bsdf (pbrt-v3 Fourier BSDF), .rgl.bsdf (RGL tensor))");
+    EXPECT_THROW(read_table("no-such-paint"), IoError);
     TempDir dir;
     EXPECT_THROW(write_table(dir / "x.json", test::analytic_table()), InputError);
     EXPECT_TRUE(fs::is_empty(dir.path()));

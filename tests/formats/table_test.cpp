@@ -22,7 +22,11 @@ TEST(BrdfTable, NewTableMarksCellsBelowTheHorizonAsNoData) {
         for (int c = 0; c < 3; ++c)
             ASSERT_EQ(t.channels[c][cell], cell_below_horizon(cell) ? -1.0 : 0.0);
     }
-    EXPECT_EQ(t.colorspace, "linear Rec.709 (sRGB primaries), D65");
+    EXPECT_EQ(t.colorspace, "rec709");
+    EXPECT_EQ(canonical_colorspace("ACEScg"), "acescg");
+    EXPECT_EQ(canonical_colorspace("Rec2020"), "rec2020");
+    EXPECT_EQ(canonical_colorspace("linear Rec.709 (sRGB primaries), D65"), "rec709");
+    EXPECT_EQ(canonical_colorspace("sRGB"), "");
     EXPECT_EQ(t.spec, "");
     EXPECT_EQ(t.generator, "");
 }

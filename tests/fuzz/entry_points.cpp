@@ -4,8 +4,13 @@
 #include <brdf/core/log.h>
 #include <brdf/material/spec.h>
 #include <formats/exr/exr.h>
+#include <formats/exr/spectral_exr.h>
+#include <formats/fourier/fourier.h>
 #include <formats/merl/merl.h>
+#include <formats/rgl/rgl_bsdf.h>
+#include <formats/rgl/rgl_eval.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -52,6 +57,34 @@ void merl(const std::uint8_t* data, std::size_t size) {
 void exr(const std::uint8_t* data, std::size_t size) {
     static ScratchFile file(".exr");
     formats::read_exr(file.write(data, size));
+}
+
+void rgl(const std::uint8_t* data, std::size_t size) {
+    static ScratchFile file(".rgl.bsdf");
+    const formats::RglEvaluator evaluator(formats::read_rgl_bsdf(file.write(data, size)));
+    const formats::Vec3 directions[] = {{0.0, 0.0, 1.0}, {0.6, 0.0, 0.8}, {-0.3, 0.4, 0.866},
+                                        {0.999, 0.0, 0.0447}, {0.0, -0.6, 0.8}};
+    for (const auto& wi : directions)
+        for (const auto& wo : directions) {
+            for (double v : evaluator.eval_cosine(wi, wo))
+                if (std::isnan(v)) throw std::runtime_error("fuzz: the evaluator returned NaN");
+        }
+}
+
+void fourier(const std::uint8_t* data, std::size_t size) {
+    static ScratchFile file(".bsdf");
+    const formats::FourierBsdf bsdf = formats::read_fourier_bsdf(file.write(data, size));
+    // Directions on and between nodes, at the poles and below the horizon.
+    for (double ti : {0.0, 0.3, 1.2, 1.5707963267948966, 2.0})
+        for (double to : {0.0, 0.7, 1.4, 3.0})
+            for (double phi : {0.0, 1.0, 3.14159})
+                for (double v : formats::evaluate(bsdf, ti, to, phi))
+                    if (!(v >= 0.0)) throw std::logic_error("fuzz: evaluate gave a negative or NaN value");
+}
+
+void spectral_exr(const std::uint8_t* data, std::size_t size) {
+    static ScratchFile file(".spectral.exr");
+    formats::read_spectral_exr(file.write(data, size));
 }
 
 void spec(const std::uint8_t* data, std::size_t size) {

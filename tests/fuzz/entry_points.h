@@ -15,6 +15,16 @@ namespace brdf::fuzz {
 void merl(const std::uint8_t* data, std::size_t size);
 /// The bytes as an OpenEXR file (temporary file) -> read_exr.
 void exr(const std::uint8_t* data, std::size_t size);
+/// The bytes as an RGL BSDF file (temporary file) -> read_rgl_bsdf; a file that reads is then
+/// evaluated (RglEvaluator) at a few direction pairs, so that valid but odd files reach the
+/// evaluator's interpolation too.
+void rgl(const std::uint8_t* data, std::size_t size);
+/// The bytes as a pbrt-v3 Fourier BSDF file (temporary file) -> read_fourier_bsdf, and on success
+/// evaluate at a few directions (the reader's checks must make every file it accepts safe to
+/// evaluate).
+void fourier(const std::uint8_t* data, std::size_t size);
+/// The bytes as a spectral OpenEXR table (temporary file) -> read_spectral_exr.
+void spectral_exr(const std::uint8_t* data, std::size_t size);
 /// The bytes as spec JSON text -> parse_specs_text.
 void spec(const std::uint8_t* data, std::size_t size);
 

@@ -1,8 +1,9 @@
 // Inputs that once crashed, hung or leaked in a fuzzer (tests/data/fuzz/regressions, see its
 // README), replayed through the fuzzers' own entry points (tests/fuzz/entry_points.h). The file name
-// says which: "merl-*", "exr-*", "spec-*". Each must be refused with a brdf::Error or accepted;
-// another exception fails the test, a crash or sanitizer report kills it. The seed corpora
-// (tests/data/fuzz/{merl,exr,spec}) are replayed too, so the entry points themselves stay tested.
+// says which: "merl-*", "exr-*", "fourier-*", "spectral-*", "rgl-*", "spec-*". Each must be refused
+// with a brdf::Error or accepted; another exception fails the test, a crash or sanitizer report kills
+// it. The seed corpora (tests/data/fuzz/{merl,exr,fourier,spectral_exr,rgl,spec}) are replayed too,
+// so the entry points themselves stay tested.
 
 #include "entry_points.h"
 
@@ -55,8 +56,9 @@ TEST(FuzzRegressions, EveryFileIsNamedAfterItsTarget) {
     for (const fs::path& f : files(regressions)) {
         const std::string name = f.filename().string();
         EXPECT_TRUE(name.starts_with("merl-") || name.starts_with("exr-") ||
-                    name.starts_with("spec-"))
-            << name << ": name must start with merl-, exr- or spec-";
+                    name.starts_with("fourier-") || name.starts_with("spectral-") ||
+                    name.starts_with("rgl-") || name.starts_with("spec-"))
+            << name << ": name must start with merl-, exr-, fourier-, spectral-, rgl- or spec-";
     }
 }
 
@@ -68,6 +70,18 @@ TEST(FuzzRegressions, ExrInputs) {
     for (const fs::path& f : files(regressions, "exr-")) replay(&exr, f);
 }
 
+TEST(FuzzRegressions, RglInputs) {
+    for (const fs::path& f : files(regressions, "rgl-")) replay(&rgl, f);
+}
+
+TEST(FuzzRegressions, FourierInputs) {
+    for (const fs::path& f : files(regressions, "fourier-")) replay(&fourier, f);
+}
+
+TEST(FuzzRegressions, SpectralExrInputs) {
+    for (const fs::path& f : files(regressions, "spectral-")) replay(&spectral_exr, f);
+}
+
 TEST(FuzzRegressions, SpecInputs) {
     for (const fs::path& f : files(regressions, "spec-")) replay(&spec, f);
 }
@@ -76,6 +90,9 @@ TEST(FuzzSeeds, EverySeedRunsThroughItsEntryPoint) {
     const fs::path seeds = test::source_dir() / "tests/data/fuzz";
     for (const fs::path& f : files(seeds / "merl")) replay(&merl, f);
     for (const fs::path& f : files(seeds / "exr")) replay(&exr, f);
+    for (const fs::path& f : files(seeds / "rgl")) replay(&rgl, f);
+    for (const fs::path& f : files(seeds / "fourier")) replay(&fourier, f);
+    for (const fs::path& f : files(seeds / "spectral_exr")) replay(&spectral_exr, f);
     for (const fs::path& f : files(seeds / "spec")) replay(&spec, f);
 }
 
@@ -85,6 +102,9 @@ TEST(FuzzSeeds, EntryPointsLetTheReadersErrorsThrough) {
     const auto* p = reinterpret_cast<const std::uint8_t*>(junk.data());
     EXPECT_THROW(merl(p, junk.size()), FormatError);
     EXPECT_THROW(exr(p, junk.size()), FormatError);
+    EXPECT_THROW(rgl(p, junk.size()), FormatError);
+    EXPECT_THROW(fourier(p, junk.size()), FormatError);
+    EXPECT_THROW(spectral_exr(p, junk.size()), FormatError);
     EXPECT_THROW(spec(p, junk.size()), InputError);
 }
 

@@ -6,7 +6,7 @@
 // (where the stream cap stops the convergence check short, the estimate must say that instead).
 
 #include <brdf/material/spec.h>
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
 #include <test_support.h>
 
 #include <cmath>
@@ -56,8 +56,8 @@ class Hard : public ::testing::TestWithParam<HardCase> {};
 
 TEST_P(Hard, FiniteReciprocalConservingAndConverged) {
     const HardCase& c = GetParam();
-    const service::SolvedMaterial m = service::solve_material(make_spec(c, "draft"), service::Device::Cpu);
-    const service::SolvedMaterial ref = service::solve_material(make_spec(c, "default"), service::Device::Cpu);
+    const model::SolvedMaterial m = model::solve_material(make_spec(c, "draft"), model::Device::Cpu);
+    const model::SolvedMaterial ref = model::solve_material(make_spec(c, "default"), model::Device::Cpu);
     double worst = 0.0;
     for (double ti : zeniths)
         for (double to : zeniths)
@@ -115,9 +115,9 @@ TEST(HardCatalogue, ErrorEstimateIsHonestOnTheExampleCatalogue) {
     for (const auto& base : material::parse_specs(doc, "catalogue.json")) {
         nlohmann::json one = base.resolved;
         one["accuracy"] = "draft";
-        const auto draft = service::solve_material(material::parse_specs(one, base.name).at(0), service::Device::Cpu);
+        const auto draft = model::solve_material(material::parse_specs(one, base.name).at(0), model::Device::Cpu);
         one["accuracy"] = "default";
-        const auto fine = service::solve_material(material::parse_specs(one, base.name).at(0), service::Device::Cpu);
+        const auto fine = model::solve_material(material::parse_specs(one, base.name).at(0), model::Device::Cpu);
         double worst = 0.0;
         for (double ti : {0.0, 30.0 * deg, 60.0 * deg, 85.0 * deg})
             for (double to : {0.0, 30.0 * deg, 60.0 * deg, 85.0 * deg})

@@ -196,6 +196,14 @@ TEST(SpectrumExplicit, OneWavelengthCarriesEverything) {
     }
 }
 
+// Every colour space has one weight per wavelength, for every kind of set (values: colour_test.cpp).
+TEST(SpectrumColourSpaces, EverySetHasWeightsInEverySpace) {
+    for (const SpectralSet& s : {SpectralSet::visible(), SpectralSet::rgb(),
+                                 SpectralSet::from_wavelengths(std::vector<double>{500.0, 600.0})})
+        for (ColorSpace space : {ColorSpace::Rec709, ColorSpace::AcesCg, ColorSpace::Rec2020})
+            EXPECT_EQ(s.rgb_weights(space).size(), s.size()) << s.name();
+}
+
 TEST(SpectrumExplicit, ValidationMessages) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     EXPECT_EQ(wavelength_list_problems(std::vector<double>{500.0, 450.0, 3000.0, nan, 600.0, 600.0},
@@ -224,6 +232,8 @@ TEST(SpectrumExplicit, ValidationMessages) {
     EXPECT_EQ(SpectralSet::from_wavelengths(many).size(), 1000u);
     const SpectralSet v = SpectralSet::visible();
     EXPECT_EQ(message_of<InputError>([&] { v.to_rgb(ones(3)); }),
+              "SpectralSet visible: 3 values for 41 wavelengths");
+    EXPECT_EQ(message_of<InputError>([&] { v.to_rgb(ones(3), ColorSpace::AcesCg); }),
               "SpectralSet visible: 3 values for 41 wavelengths");
 }
 

@@ -124,13 +124,13 @@ TEST(MieCli, InvalidInputIsStatus3WithOneLine) {
     expect_invalid({"--m", "1.5", "--x", "10", "--index", "2.7"}, "cannot be combined");
     expect_invalid({}, "give --m and --x");
     expect_invalid({"--m", "1.5", "--x", "1", "--legendre", "0"}, "--legendre");
-    expect_invalid(with({"--radius-um", "-0.2"}), "radius_um must be a finite number > 0 (got -0.2)");
+    expect_invalid(with({"--radius-um", "-0.2"}), "radius_um: must be > 0 (got -0.2)");
     expect_invalid(with({"--radius-um", "nan"}), "--radius-um");
     expect_invalid(with({"--distribution", "power_law", "--r-eff-um", "0.4"}), "needs --v-eff");
     expect_invalid(with({"--distribution", "power_law", "--r-eff-um", "0.4", "--v-eff", "3"}),
-                   "v_eff must be in");
+                   "v_eff: must be in");
     expect_invalid(with({"--distribution", "gamma", "--r-eff-um", "0.4", "--v-eff", "0.5"}),
-                   "v_eff must be in");
+                   "v_eff: must be in");
     expect_invalid(with({"--distribution", "lognormal", "--r-g-um", "0.2", "--sigma-g", "0.9"}),
                    "sigma_g");
     expect_invalid(with({"--distribution", "weibull"}), "'weibull'");

@@ -134,21 +134,89 @@ TEST(SizeDistribution, MonodisperseIsOneRadius) {
 TEST(SizeDistribution, RejectsInvalidParametersWithClearMessages) {
     using test::expect_error_mentions;
     const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
-    expect_error_mentions<InputError>([] { monodisperse(-0.2); }, "radius_um must be a finite number > 0 (got -0.2)");
+    expect_error_mentions<InputError>([] { monodisperse(-0.2); }, "monodisperse: radius_um: must be > 0 (got -0.2)");
     expect_error_mentions<InputError>([] { monodisperse(0.0); }, "radius_um");
     expect_error_mentions<InputError>([&] { monodisperse(nan); }, "nan");
     expect_error_mentions<InputError>([&] { power_law(inf, 0.2); }, "r_eff_um");
-    expect_error_mentions<InputError>([] { power_law(0.4, 0.0); }, "v_eff must be in");
+    expect_error_mentions<InputError>([] { power_law(0.4, 0.0); }, "v_eff: must be in");
     expect_error_mentions<InputError>([] { power_law(0.4, 2.5); }, "(got 2.5)");
     expect_error_mentions<InputError>([&] { power_law(0.4, nan); }, "v_eff");
     expect_error_mentions<InputError>([] { gamma(0.4, 0.5); }, "not normalisable");
     expect_error_mentions<InputError>([] { gamma(0.4, -0.1); }, "got -0.1");
     expect_error_mentions<InputError>([] { gamma(-1.0, 0.1); }, "gamma: r_eff_um");
-    expect_error_mentions<InputError>([] { lognormal(0.2, 1.0); }, "sigma_g must be in (1, 3]");
+    expect_error_mentions<InputError>([] { lognormal(0.2, 1.0); }, "sigma_g: must be in (1, 3]");
     expect_error_mentions<InputError>([] { lognormal(0.2, 0.5); }, "(got 0.5)");
     expect_error_mentions<InputError>([] { lognormal(0.2, 3.5); }, "sigma_g");
     expect_error_mentions<InputError>([] { lognormal(0.2, 1.0001); }, "use monodisperse");
     expect_error_mentions<InputError>([] { lognormal(0.0, 1.5); }, "r_g_um");
+}
+
+// The spec parser reports these under each parameter's JSON path, and the constructors throw the same
+// words: one source for the ranges.
+TEST(SizeDistribution, ParameterProblemsNameTheSpecKeys) {
+    const auto texts = [](DistributionKind kind, double p1, double p2) {
+        std::vector<std::string> out;
+        for (const ParameterProblem& p : parameter_problems(kind, p1, p2)) out.push_back(p.text());
+        return out;
+    };
+    using V = std::vector<std::string>;
+    EXPECT_EQ(texts(DistributionKind::Monodisperse, 0.25, 0.0), V{});
+    EXPECT_EQ(texts(DistributionKind::PowerLaw, 0.4, 0.3), V{});
+    EXPECT_EQ(texts(DistributionKind::Gamma, 0.4, 0.1), V{});
+    EXPECT_EQ(texts(DistributionKind::Lognormal, 0.2, 1.5), V{});
+    // Monodisperse ignores the second parameter.
+    EXPECT_EQ(texts(DistributionKind::Monodisperse, 0.25, -7.0), V{});
+
+    EXPECT_EQ(texts(DistributionKind::Monodisperse, 0.0, 0.0), V{"radius_um: must be > 0 (got 0)"});
+    EXPECT_EQ(texts(DistributionKind::Monodisperse, std::nan(""), 0.0),
+              V{"radius_um: must be a finite number > 0 (got nan)"});
+    EXPECT_EQ(texts(DistributionKind::PowerLaw, -0.2, 3.0),
+              (V{"r_eff_um: must be > 0 (got -0.2)", "v_eff: must be in [1e-06, 2] (got 3)"}));
+    EXPECT_EQ(texts(DistributionKind::Gamma, 0.4, 0.6),
+              V{"v_eff: must be in [1e-06, 0.5) for the gamma distribution (it is not normalisable "
+                "at 0.5) (got 0.6)"});
+    EXPECT_EQ(texts(DistributionKind::Gamma, 0.4, 0.0),
+              V{"v_eff: must be in [1e-06, 0.5) for the gamma distribution (it is not normalisable "
+                "at 0.5) (got 0)"});
+    EXPECT_EQ(texts(DistributionKind::Lognormal, 0.2, 5.0), V{"sigma_g: must be in (1, 3] (got 5)"});
+    EXPECT_EQ(texts(DistributionKind::Lognormal, 0.2, 1.0001),
+              V{"sigma_g: is narrower than v_eff = 1e-06 (sigma_g >= 1.001); use monodisperse (got "
+                "1.0001)"});
+    // The boundaries: v_eff = 2 and sigma_g = 3 are allowed, 0.5 for gamma is not.
+    EXPECT_EQ(texts(DistributionKind::PowerLaw, 0.4, 2.0), V{});
+    EXPECT_EQ(texts(DistributionKind::Lognormal, 0.2, 3.0), V{});
+    EXPECT_EQ(texts(DistributionKind::Gamma, 0.4, 0.5).size(), 1u);
+
+    const auto problems = parameter_problems(DistributionKind::Lognormal, -1.0, 0.5);
+    ASSERT_EQ(problems.size(), 2u);
+    EXPECT_EQ(problems[0].key, "r_g_um");
+    EXPECT_EQ(problems[1].key, "sigma_g");
+    EXPECT_EQ(problems[1].fault, "must be in (1, 3] (got 0.5)");
+
+    EXPECT_STREQ(parameter1_key(DistributionKind::Monodisperse), "radius_um");
+    EXPECT_STREQ(parameter2_key(DistributionKind::Monodisperse), "");
+    EXPECT_STREQ(parameter1_key(DistributionKind::Gamma), "r_eff_um");
+    EXPECT_STREQ(parameter2_key(DistributionKind::PowerLaw), "v_eff");
+    EXPECT_STREQ(parameter1_key(DistributionKind::Lognormal), "r_g_um");
+    EXPECT_STREQ(parameter2_key(DistributionKind::Lognormal), "sigma_g");
+}
+
+TEST(SizeDistribution, ConstructorsThrowTheProblemsText) {
+    try {
+        lognormal(-1.0, 0.5);
+        ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_EQ(std::string(e.what()),
+                  "lognormal: r_g_um: must be > 0 (got -1); sigma_g: must be in (1, 3] (got 0.5)");
+    }
+    try {
+        gamma(0.4, 0.6);
+        ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_EQ(std::string(e.what()),
+                  "gamma: v_eff: must be in [1e-06, 0.5) for the gamma distribution (it is not "
+                  "normalisable at 0.5) (got 0.6)");
+    }
 }
 
 } // namespace

@@ -6,9 +6,9 @@
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
 #include <brdf/material/spec.h>
-#include <brdf/service/cl_table_fill.h>
-#include <brdf/service/model.h>
-#include <brdf/service/table_fill.h>
+#include <brdf/model/cl_table_fill.h>
+#include <brdf/model/model.h>
+#include <brdf/model/table_fill.h>
 #include <formats/halfdiff.h>
 #include <formats/table.h>
 
@@ -82,32 +82,32 @@ protected:
 };
 
 TEST_F(ClTableFill, AnalyticMediumMatchesReference) {
-    const service::SolvedMaterial m = service::solve_material(spec_from(hg_medium), service::Device::Cpu);
-    const service::FillInputs in = service::prepare_fill(m);
-    compare_tables(service::fill_table_opencl(in), service::fill_table_cpu(in, 2));
+    const model::SolvedMaterial m = model::solve_material(spec_from(hg_medium), model::Device::Cpu);
+    const model::FillInputs in = model::prepare_fill(m);
+    compare_tables(model::fill_table_opencl(in), model::fill_table_cpu(in, 2));
 }
 
 TEST_F(ClTableFill, ParticulateMaterialMatchesReference) {
-    const service::SolvedMaterial m = service::solve_material(spec_from(white_paint), service::Device::Cpu);
-    const service::FillInputs in = service::prepare_fill(m);
+    const model::SolvedMaterial m = model::solve_material(spec_from(white_paint), model::Device::Cpu);
+    const model::FillInputs in = model::prepare_fill(m);
     ASSERT_GT(in.samples, 0);
-    compare_tables(service::fill_table_opencl(in), service::fill_table_cpu(in, 2));
+    compare_tables(model::fill_table_opencl(in), model::fill_table_cpu(in, 2));
 }
 
 TEST_F(ClTableFill, EmptyInputsGiveTheHorizonMaskAndZeros) {
-    service::FillInputs in; // no orders, no samples: only the geometry
+    model::FillInputs in; // no orders, no samples: only the geometry
     in.grid = 2;
-    compare_tables(service::fill_table_opencl(in), service::fill_table_cpu(in, 2));
-    const formats::BrdfTable t = service::fill_table_opencl(in);
+    compare_tables(model::fill_table_opencl(in), model::fill_table_cpu(in, 2));
+    const formats::BrdfTable t = model::fill_table_opencl(in);
     EXPECT_EQ(t.data_cells(), formats::cells - 361784u);
 }
 
 TEST(ClTableFillInputs, InconsistentInputsAreRefused) {
-    service::FillInputs in;
+    model::FillInputs in;
     in.grid = 3;
     in.orders = 2;
     in.fourier.assign(2 * 3 * 3 * 3 - 1, 0.0);
-    EXPECT_THROW(service::fill_table_opencl(in), InputError);
+    EXPECT_THROW(model::fill_table_opencl(in), InputError);
     in.fourier.push_back(0.0);
     in.samples = 1;
     in.phase_points = 4;
@@ -116,7 +116,7 @@ TEST(ClTableFillInputs, InconsistentInputsAreRefused) {
     in.transmission.assign(2, 1.0);
     in.index.assign(1, 1.0);
     in.weight.assign(2, 1.0); // 3 expected
-    EXPECT_THROW(service::fill_table_opencl(in), InputError);
+    EXPECT_THROW(model::fill_table_opencl(in), InputError);
 }
 
 } // namespace

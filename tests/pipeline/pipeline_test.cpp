@@ -3,8 +3,8 @@
 
 #include <brdf/material/spec.h>
 #include <brdf/service/compute.h>
-#include <brdf/service/model.h>
-#include <brdf/service/table_fill.h>
+#include <brdf/model/model.h>
+#include <brdf/model/table_fill.h>
 #include <formats/halfdiff.h>
 #include <formats/table_io.h>
 #include <test_support.h>
@@ -27,8 +27,8 @@ const char* hg_medium = R"({"name": "hg", "medium": {"albedo": [0.99, 0.8, 0.4],
     "phase": {"type": "henyey_greenstein", "g": 0.6}}, "accuracy": "draft"})";
 
 TEST(Pipeline, TableCellsMatchTheModelAtTheirBinCentres) {
-    const service::SolvedMaterial m = service::solve_material(spec_from(hg_medium), service::Device::Cpu);
-    const service::FillInputs in = service::prepare_fill(m);
+    const model::SolvedMaterial m = model::solve_material(spec_from(hg_medium), model::Device::Cpu);
+    const model::FillInputs in = model::prepare_fill(m);
     std::mt19937 rng(7);
     std::uniform_int_distribution<std::size_t> pick(0, 1458000 - 1);
     int checked = 0;
@@ -42,7 +42,7 @@ TEST(Pipeline, TableCellsMatchTheModelAtTheirBinCentres) {
         const double ti = std::acos(d.wi.z), to = std::acos(d.wo.z);
         if (ti > 1.5 || to > 1.5) continue; // the last degree before grazing is where the grid is coarsest
         const double phi = std::atan2(d.wo.y, d.wo.x) - std::atan2(d.wi.y, d.wi.x);
-        const auto table = service::fill_value(in, ti, to, phi);
+        const auto table = model::fill_value(in, ti, to, phi);
         const auto exact = m.brdf(ti, to, phi);
         for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(table[c] - exact[c]) / exact[c]);
         ++checked;
@@ -52,11 +52,11 @@ TEST(Pipeline, TableCellsMatchTheModelAtTheirBinCentres) {
 }
 
 TEST(Pipeline, WhiteFurnaceTableConservesEnergy) {
-    const service::SolvedMaterial m = service::solve_material(
+    const model::SolvedMaterial m = model::solve_material(
         spec_from(R"({"name": "white", "medium": {"albedo": 1, "phase": {"type": "henyey_greenstein", "g": 0.3}},
                       "accuracy": "draft"})"),
-        service::Device::Cpu);
-    const formats::BrdfTable table = service::fill_table_cpu(service::prepare_fill(m), 2);
+        model::Device::Cpu);
+    const formats::BrdfTable table = model::fill_table_cpu(model::prepare_fill(m), 2);
     for (double deg : {0.0, 20.0, 45.0, 70.0}) {
         const auto exact = m.albedo(deg * std::numbers::pi / 180.0);
         const auto tab = formats::directional_albedo(table, deg * std::numbers::pi / 180.0);
@@ -71,11 +71,11 @@ TEST(Pipeline, WhiteFurnaceTableConservesEnergy) {
 
 TEST(Pipeline, MirrorPlusDiffuseIsOneForARealWhitePaint) {
     // Rutile in acrylic absorbs nothing: all light comes back, split between the mirror and the body.
-    const service::SolvedMaterial m = service::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
+    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
         "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
                       "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
         "spectrum": "rgb", "accuracy": "draft"})"),
-                                                              service::Device::Cpu);
+                                                              model::Device::Cpu);
     for (double deg : {0.0, 40.0, 75.0}) {
         const auto a = m.albedo(deg * std::numbers::pi / 180.0), r = m.mirror(deg * std::numbers::pi / 180.0);
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c] + r[c], 1.0, 1e-9);
@@ -89,7 +89,7 @@ TEST(Pipeline, ComputeWritesTablesAndReportAndSkipsWhatIsDone) {
         {"name": "b", "medium": {"albedo": 0.5, "phase": "rayleigh"}, "accuracy": "draft", "outputs": ["exr"]}]})");
     service::ComputeOptions options;
     options.output_dir = dir / "out";
-    options.device = service::Device::Cpu;
+    options.device = model::Device::Cpu;
     auto outcomes = service::compute_files({dir / "spec.json"}, options);
     ASSERT_EQ(outcomes.size(), 2u);
     for (const auto& o : outcomes) EXPECT_TRUE(o.ok && !o.skipped) << o.error;
@@ -121,7 +121,7 @@ TEST(Pipeline, TablesAreNotSolvedTighterThanTheyCanHold) {
                                       "outputs": ["exr"]})");
     service::ComputeOptions options;
     options.output_dir = dir / "out";
-    options.device = service::Device::Cpu;
+    options.device = model::Device::Cpu;
     const auto outcomes = service::compute_files({dir / "spec.json"}, options);
     ASSERT_TRUE(outcomes.at(0).ok) << outcomes[0].error;
     const auto report = nlohmann::json::parse(read_file(dir / "out/tight.report.json"));
@@ -135,9 +135,40 @@ TEST(Pipeline, InvalidSpecComputesNothing) {
     write_file(dir / "spec.json", R"({"name": "x", "medium": {"albedo": 1.5}})");
     service::ComputeOptions options;
     options.output_dir = dir / "out";
-    options.device = service::Device::Cpu;
+    options.device = model::Device::Cpu;
     EXPECT_THROW(service::compute_files({dir / "spec.json"}, options), InputError);
     EXPECT_FALSE(std::filesystem::exists(dir / "out/x.binary"));
+}
+
+// The spec format describes films, stacks, rough surfaces, other colour spaces and outputs (docs/
+// spec.md) that the pipeline does not compute yet: each is refused with an InputError naming it,
+// before any work, instead of being computed as something else.
+TEST(Pipeline, RefusesWhatItCannotComputeYet) {
+    const auto refusal = [](const std::string& text) {
+        try {
+            model::solve_material(spec_from(text), model::Device::Cpu);
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string("no InputError");
+    };
+    EXPECT_EQ(refusal(R"({"name": "f", "medium": {"albedo": 0.9, "optical_depth": 2}})"),
+              "test.json: finite layers (\"thickness_um\", \"optical_depth\", \"substrate\") are "
+              "not supported yet");
+    EXPECT_EQ(refusal(R"({"name": "s", "layers": [{"medium": {"albedo": 0.9, "optical_depth": 1}},
+                                                  {"medium": {"albedo": 0.5}}]})"),
+              "test.json: stacks of several layers (\"layers\") are not supported yet");
+    EXPECT_EQ(refusal(R"({"name": "r", "medium": {"albedo": 0.9, "index": 1.5}, "surface": "satin"})"),
+              "test.json: rough surfaces (\"roughness\", \"gloss\", \"satin\", \"matte\") are not "
+              "supported yet");
+    EXPECT_EQ(refusal(R"({"name": "c", "medium": {"albedo": 0.9}, "colorspace": "acescg"})"),
+              "test.json: colour spaces other than \"rec709\" are not supported yet");
+    EXPECT_EQ(refusal(R"({"name": "o", "medium": {"albedo": 0.9}, "outputs": ["merl", "rgl"]})"),
+              "test.json: the output \"rgl\" is not supported yet");
+    // The defaults written out are computed as before.
+    EXPECT_EQ(refusal(R"({"name": "d", "medium": {"albedo": 0.9}, "colorspace": "rec709",
+                          "accuracy": "draft", "spectrum": "rgb"})"),
+              "no InputError");
 }
 
 } // namespace
@@ -151,11 +182,11 @@ namespace {
 TEST(PipelineSpectral, SelectedWavelengthsMeetTheTolerance) {
     const auto specs = material::load_specs(source_dir() / "examples/catalogue.json");
     for (const auto& spec : specs) {
-        if (spec.medium) continue;
-        service::Settings all = service::settings_for(spec.accuracy.tolerance);
+        if (spec.layers[0].medium) continue;
+        model::NumericalSettings all = model::settings_for(spec.accuracy.tolerance);
         all.select_wavelengths = false;
-        const auto full = service::solve_material(spec, service::Device::Cpu, all);
-        const auto fast = service::solve_material(spec, service::Device::Cpu);
+        const auto full = model::solve_material(spec, model::Device::Cpu, all);
+        const auto fast = model::solve_material(spec, model::Device::Cpu);
         double worst = 0.0;
         for (double ti : {0.1, 0.6, 1.2})
             for (double to : {0.2, 0.9, 1.4})
@@ -180,7 +211,7 @@ TEST(PipelineGamut, SaturatedYellowIsBroughtIntoGamutKeepingLuminance) {
         "pigments": [{"material": "cds", "volume_fraction": 0.1,
                       "size": {"distribution": "power_law", "r_eff_um": 0.2, "v_eff": 0.2}}]})";
     const auto spec = material::parse_specs_text(text, "cds.json").at(0);
-    const service::SolvedMaterial m = service::solve_material(spec, service::Device::Cpu);
+    const model::SolvedMaterial m = model::solve_material(spec, model::Device::Cpu);
     EXPECT_LT(m.gamut_scale, 1.0); // CdS is more saturated than the Rec.709 yellow
     for (double deg : {0.0, 30.0, 60.0, 80.0}) {
         const double t = deg * std::numbers::pi / 180.0;
@@ -201,8 +232,8 @@ namespace {
 // A table looked up at random directions (nearest bin, as renderers and the MERL reader do) agrees
 // with eval on the spec at those exact directions within the binning error of 1-degree bins.
 TEST(PipelineTable, RandomDirectionsAgreeWithTheModelWithinTheBinning) {
-    const service::SolvedMaterial m = service::solve_material(spec_from(hg_medium), service::Device::Cpu);
-    const formats::BrdfTable table = service::fill_table_cpu(service::prepare_fill(m), 2);
+    const model::SolvedMaterial m = model::solve_material(spec_from(hg_medium), model::Device::Cpu);
+    const formats::BrdfTable table = model::fill_table_cpu(model::prepare_fill(m), 2);
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> zenith(0.0, 80.0 * std::numbers::pi / 180.0), azimuth(0.0, std::numbers::pi);
     std::vector<double> errors;

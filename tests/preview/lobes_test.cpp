@@ -25,7 +25,7 @@ TEST(PlotLobes, ForwardScattererPutsMoreInkOnTheMirrorSide) {
     // Henyey-Greenstein g = 0.9 scatters forward: in the plane of incidence the lobe leans to the
     // mirror side (phi = 180, drawn on the right). Ink is counted as the difference to the same plot
     // of a zero BRDF (same axes, legend and incidence ray).
-    const service::SolvedMaterial hg = solve_text(
+    const model::SolvedMaterial hg = solve_text(
         R"({"name": "forward", "medium": {"albedo": 0.9, "phase": {"type": "henyey_greenstein", "g": 0.9}},
             "surface": "none", "accuracy": "draft"})");
     const preview::BrdfFunction f = [&hg](double ti, double to, double phi) { return hg.brdf(ti, to, phi); };

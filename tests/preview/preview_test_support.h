@@ -6,7 +6,7 @@
 #include <brdf/material/spec.h>
 #include <brdf/preview/image.h>
 #include <brdf/preview/render.h>
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
 
 #include <OpenImageIO/imageio.h>
 
@@ -27,9 +27,9 @@ inline preview::BrdfFunction lambertian(double albedo = 1.0) {
 }
 
 /// Solves one analytic-medium spec (JSON text) on the CPU.
-inline service::SolvedMaterial solve_text(const std::string& json) {
+inline model::SolvedMaterial solve_text(const std::string& json) {
     const auto specs = material::parse_specs_text(json, "test spec");
-    return service::solve_material(specs.at(0), service::Device::Cpu);
+    return model::solve_material(specs.at(0), model::Device::Cpu);
 }
 
 struct ReadImage {

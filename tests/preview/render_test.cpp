@@ -60,7 +60,7 @@ TEST(RenderSphere, WhiteFurnaceIsUniform) {
     // under a uniform environment every point of the sphere has the environment's radiance. Measured
     // within 3e-4 of 1 (draft streams, the 24 x 13 BRDF grid, the 8 x 16 local rule); 1% leaves room for
     // solver changes while still catching a wrong frame, weight or phi convention.
-    const service::SolvedMaterial white = solve_text(
+    const model::SolvedMaterial white = solve_text(
         R"({"name": "furnace", "medium": {"albedo": 1.0, "phase": "isotropic"}, "surface": "none",
             "spectrum": "rgb", "accuracy": "draft"})");
     preview::RenderOptions o = small(64);
@@ -131,7 +131,7 @@ TEST(RenderSphere, TabulatedBrdfMatchesTheFunction) {
 }
 
 TEST(WritePreview, WritesA256PixelPng) {
-    const service::SolvedMaterial m = solve_text(
+    const model::SolvedMaterial m = solve_text(
         R"({"name": "orange", "medium": {"albedo": [0.9, 0.6, 0.3], "index": 1.5}, "surface": "smooth",
             "accuracy": "draft"})");
     TempDir dir;

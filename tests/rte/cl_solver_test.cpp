@@ -48,7 +48,7 @@ std::vector<Labelled> problems_for(int streams) {
         for (double omega : omegas) {
             ReflectionSettings settings;
             settings.streams = streams;
-            const ReflectionSetup setup = setup_reflection(Medium{omega, c.beta}, Interface{1.0}, settings);
+            const StackSetup setup = setup_reflection(Medium{omega, c.beta}, Interface{1.0}, settings);
             for (OrderProblem& p : order_problems(setup))
                 out.push_back({c.name + " omega " + std::to_string(omega) + " N " + std::to_string(streams) +
                                    " m " + std::to_string(p.m),

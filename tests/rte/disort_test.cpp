@@ -47,7 +47,7 @@ rte::Reflection solve(const rte::Medium& medium, int streams) {
     rte::ReflectionSettings settings;
     settings.streams = streams;
     settings.order_tolerance = 1e-12;
-    rte::ReflectionSetup setup = rte::setup_reflection(medium, rte::Interface{}, settings);
+    rte::StackSetup setup = rte::setup_reflection(medium, rte::Interface{}, settings);
     const auto problems = rte::order_problems(setup);
     auto solutions = rte::solve_orders_cpu(problems, settings.method, settings.control);
     return rte::Reflection(std::move(setup), std::move(solutions));
@@ -64,8 +64,8 @@ struct GridBrdf {
         double sum = 0.0;
         for (int m = 0; m < r.setup().orders; ++m)
             sum += (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * grid.orders[m](o, i) * std::cos(m * phi);
-        sum += r.single_scattering(grid.u[o], grid.u[i], phi);
-        return std::max(0.0, sum) * r.transmission_factor(grid.u[o], grid.u[i]);
+        sum += r.single_scattering(grid.mu[o], grid.mu[i], phi);
+        return std::max(0.0, sum) / std::numbers::pi;
     }
 };
 
@@ -132,7 +132,7 @@ TEST(Disort, Hg099AgreesAtTheSameDeltaMTruncation) {
         ASSERT_EQ(c["nstr"].get<int>(), 128);
         const rte::Reflection r = solve(medium_of(c), 64);
         const GridBrdf brdf(r, grid_cosines());
-        const double f = r.setup().truncated.f;
+        const double f = r.setup().layers.front().truncated.f;
         EXPECT_NEAR(f, c["delta_m_f"].get<double>(), 1e-12);
         const double omega = c["omega"];
         double worst = 0.0;

@@ -64,7 +64,7 @@ TEST(Solvers, AllThreeAgreeOnEveryOrder) {
     // HG g = 0.5 at albedo 0.99: m = 0 is slow for the fixed point, m >= 1 fast.
     rte::ReflectionSettings settings;
     settings.streams = 16;
-    const rte::ReflectionSetup setup = rte::setup_reflection({0.99, hg_beta(0.5, 100)}, {}, settings);
+    const rte::StackSetup setup = rte::setup_reflection({0.99, hg_beta(0.5, 100)}, {}, settings);
     for (const auto& problem : rte::order_problems(setup)) {
         const auto fp = rte::solve_order(problem, rte::Method::FixedPoint);
         const auto sda = rte::solve_order(problem, rte::Method::Doubling);
@@ -124,6 +124,34 @@ TEST(Grazing, FiniteAndNonNegative) {
                     EXPECT_TRUE(std::isfinite(f) && f >= 0.0) << a << " " << b << " " << phi << ": " << f;
                 }
     }
+}
+
+} // namespace
+} // namespace brdf::test
+
+namespace brdf::test {
+namespace {
+
+TEST(Interface, ExternalAlbedoMatchesIndependentValues) {
+    // docs/physics.md section 4: external albedo (mirror + diffuse) of a semi-infinite medium under a
+    // smooth interface of index 1.5 at normal incidence, derived independently and verified to
+    // ~1e-6. A Fresnel term that kept one polarisation, or a radiance factor 1/n instead of 1/n^2,
+    // moves these by percents.
+    struct Row {
+        std::vector<double> beta;
+        double values[3]; // omega 0.999, 0.99, 0.9
+    };
+    const Row rows[] = {{{1.0}, {0.841459, 0.601982, 0.259919}},
+                        {hg_beta(0.5, 200), {0.786373, 0.500607, 0.171065}},
+                        {hg_beta(0.8, 400), {0.691321, 0.360440, 0.095253}}};
+    const double omegas[] = {0.999, 0.99, 0.9};
+    for (const Row& row : rows)
+        for (int k = 0; k < 3; ++k) {
+            const rte::Reflection r = solve_cpu({omegas[k], row.beta}, 64, 1.5);
+            EXPECT_NEAR(r.mirror(1.0), 0.04, 1e-15);
+            EXPECT_NEAR(r.albedo(1.0) + r.mirror(1.0), row.values[k], 2e-6)
+                << "beta_1 " << (row.beta.size() > 1 ? row.beta[1] : 0.0) << " omega " << omegas[k];
+        }
 }
 
 } // namespace

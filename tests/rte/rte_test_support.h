@@ -22,7 +22,7 @@ inline rte::Reflection solve_cpu(const rte::Medium& medium, int streams, double 
     settings.streams = streams;
     settings.method = method;
     settings.order_tolerance = 1e-12;
-    rte::ReflectionSetup setup = rte::setup_reflection(medium, rte::Interface{n}, settings);
+    rte::StackSetup setup = rte::setup_reflection(medium, rte::Interface{n}, settings);
     const auto problems = rte::order_problems(setup);
     auto solutions = rte::solve_orders_cpu(problems, method, settings.control);
     return rte::Reflection(std::move(setup), std::move(solutions));

@@ -76,12 +76,13 @@ double seconds_since(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-/// "job NAME: done in X s" from a daemon's log; -1 when absent.
+/// "job NAME: done in 35.2 ms" (or "3.42 s") from a daemon's log, in seconds; -1 when absent.
 double job_seconds(const std::string& log, const std::string& job) {
     const std::regex re("job " + std::regex_replace(job, std::regex(R"(\.)"), R"(\.)") +
-                        R"(: done in ([0-9.e+-]+) s)");
+                        R"(: done in ([0-9.]+) (ms|s)\b)");
     std::smatch m;
-    return std::regex_search(log, m, re) ? std::stod(m[1].str()) : -1.0;
+    if (!std::regex_search(log, m, re)) return -1.0;
+    return std::stod(m[1].str()) * (m[2].str() == "ms" ? 1e-3 : 1.0);
 }
 
 // --- inotify ---------------------------------------------------------------------------------------
@@ -201,14 +202,17 @@ TEST(BrdfdService, RestartRemovesTemporariesOfKilledWritersOnly) {
 TEST(BrdfdService, RealComputeKilledRepeatedlyEndsDoneWithCompleteTables) {
     TempDir tmp;
     const fs::path spool = tmp / "spool";
-    // Tables and report of an older version of material k are there: the job replaces them.
-    submit(spool, "old.json", tiny_spec("k", 0.5));
+    // Tables and report of an older version of material k, from an earlier submission of the same
+    // job, are there: the job replaces them (another job's results it would refuse to replace).
+    submit(spool, "k.json", tiny_spec("k", 0.5));
     {
         Brdfd d({"--spool", spool.string(), "--once"}, "", tmp / "log0");
         ASSERT_EQ(d.wait(120), 0) << d.log();
     }
     const std::string old_hash =
         nlohmann::json::parse(read_file(spool / "results" / "k.report.json"))["spec_hash"];
+    // Resubmitted with new content: done/k.json goes back into incoming/.
+    fs::remove(spool / "done" / "k.json");
     submit(spool, "k.json", tiny_spec("k"));
     const auto table_temporary = [&] {
         for (const std::string& f : all_files(spool / "results"))
@@ -253,7 +257,7 @@ TEST(BrdfdService, RealComputeKilledRepeatedlyEndsDoneWithCompleteTables) {
     if (left_temporary) {
         EXPECT_NE(next.log().find("temporary of a writer that is gone"), std::string::npos) << next.log();
     }
-    EXPECT_EQ(list_files(spool / "done"), (std::vector<std::string>{"k.json", "old.json"}));
+    EXPECT_EQ(list_files(spool / "done"), (std::vector<std::string>{"k.json"}));
     EXPECT_EQ(all_files(spool / "failed"), std::vector<std::string>{});
     EXPECT_EQ(all_files(spool / "active"), std::vector<std::string>{});
     EXPECT_EQ(all_files(spool / "results"),
@@ -446,6 +450,45 @@ TEST(BrdfdService, IdenticalSpecIsNotRecomputed) {
     EXPECT_NE(d.log().find("up to date"), std::string::npos) << d.log();
     for (const auto& [f, t] : mtimes) EXPECT_EQ(fs::last_write_time(spool / "results" / f), t) << f;
     EXPECT_EQ(all_files(spool / "results"), (std::vector<std::string>{"k.binary", "k.exr", "k.report.json"}));
+}
+
+// --- no usable OpenCL; two specs of one material name ----------------------------------------------
+
+// PoCL cannot write its kernel cache (POCL_CACHE_DIR points below a file): OpenCL has no device.
+// The daemon computes on the CPU and says so once in its log, naming the cause, and in every
+// report. A second spec defining an existing material with other content is refused, naming the
+// spec whose results are there.
+TEST(BrdfdService, WithoutOpenClJobsRunOnTheCpuAndAnotherSpecCannotTakeAName) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    submit(spool, "a.json", tiny_spec("a"), 30);
+    submit(spool, "b.json", tiny_spec("b"), 20);
+    submit(spool, "c.json", tiny_spec("a", 0.5), 10); // material "a" again, other content
+    Brdfd d({"--spool", spool.string(), "--once"}, "", tmp / "log",
+            {"POCL_CACHE_DIR=/dev/null/pocl"});
+    EXPECT_EQ(d.wait(180), 1) << d.log();
+    const std::string log = d.log();
+    std::size_t warnings = 0;
+    for (std::size_t at = 0; (at = log.find("OpenCL unavailable", at)) != std::string::npos; ++at) ++warnings;
+    EXPECT_EQ(warnings, 1u) << log;
+    if (log.find("platform found but it has no device") != std::string::npos) { // PoCL is the platform
+        EXPECT_NE(log.find("PoCL could not write its cache folder /dev/null/pocl"), std::string::npos) << log;
+    }
+    for (const char* name : {"a", "b"}) {
+        const auto report = nlohmann::json::parse(read_file(spool / "results" / cat(name, ".report.json")));
+        EXPECT_EQ(report["device"], "cpu");
+        const std::string warnings_text = report["warnings"].dump();
+        EXPECT_NE(warnings_text.find("OpenCL unavailable"), std::string::npos) << warnings_text;
+        EXPECT_EQ(report["job"], cat(name, ".json"));
+    }
+    EXPECT_EQ(list_files(spool / "done"), (std::vector<std::string>{"a.json", "b.json"}));
+    const auto record = nlohmann::json::parse(read_file(spool / "failed" / "c.error.json"));
+    EXPECT_EQ(record["kind"], "input");
+    const std::string error = record["error"];
+    EXPECT_NE(error.find("material 'a'"), std::string::npos) << error;
+    EXPECT_NE(error.find("from job a.json"), std::string::npos) << error;
+    EXPECT_NE(error.find((spool / "results" / "a.report.json").string()), std::string::npos) << error;
+    EXPECT_EQ(nlohmann::json::parse(read_file(spool / "results" / "a.report.json"))["spec"]["medium"]["albedo"], 0.9);
 }
 
 } // namespace

@@ -1,6 +1,8 @@
 #pragma once
-// The real brdfd binary as a child process (shared by the brdfd tests): started with arguments and an
-// optional BRDFD_TEST_RUNNER hook, its stdout and stderr going to a log file, signalled, waited for.
+// The real brdfd binary as a child process (shared by the brdfd tests): started with arguments, its
+// stdout and stderr going to a log file, signalled, waited for. With a BRDFD_TEST_RUNNER hook it is
+// brdfd_test (the same daemon with the sleep hook, tests/service/brdfd_test_main.cpp); without one,
+// the shipped brdfd.
 
 #include "spool_fixture.h"
 
@@ -28,14 +30,23 @@ namespace fs = std::filesystem;
 /// when destroyed.
 class Brdfd {
 public:
-    Brdfd(const std::vector<std::string>& args, const std::string& test_runner, const fs::path& log)
+    /// `extra_env`: NAME=VALUE entries added to (or replacing) the test's environment.
+    Brdfd(const std::vector<std::string>& args, const std::string& test_runner, const fs::path& log,
+          const std::vector<std::string>& extra_env = {})
         : m_log(log) {
-        std::vector<std::string> argv{(bin_dir() / "brdfd").string()};
+        std::vector<std::string> argv{(bin_dir() / (test_runner.empty() ? "brdfd" : "brdfd_test")).string()};
         argv.insert(argv.end(), args.begin(), args.end());
         std::vector<std::string> env;
+        const auto replaced = [&](const char* entry) {
+            if (std::strncmp(entry, "BRDFD_TEST_RUNNER=", 18) == 0) return true;
+            for (const std::string& x : extra_env)
+                if (std::strncmp(entry, x.c_str(), x.find('=') + 1) == 0) return true;
+            return false;
+        };
         for (char** e = environ; *e; ++e)
-            if (std::strncmp(*e, "BRDFD_TEST_RUNNER=", 18) != 0) env.emplace_back(*e);
+            if (!replaced(*e)) env.emplace_back(*e);
         if (!test_runner.empty()) env.push_back("BRDFD_TEST_RUNNER=" + test_runner);
+        env.insert(env.end(), extra_env.begin(), extra_env.end());
         // Everything exec needs is built before fork: the child only dup2s and execs.
         std::vector<char*> cargv, cenv;
         for (std::string& a : argv) cargv.push_back(a.data());

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <csignal>
 #include <cstring>
 #include <fcntl.h>
@@ -35,10 +36,23 @@ TEST(Brdfd, VersionAndHelp) {
 
 TEST(Brdfd, UsageErrors) {
     TempDir tmp;
-    EXPECT_EQ(run_tool("brdfd", {}).status, 2); // --spool is required
-    EXPECT_EQ(run_tool("brdfd", {"--spool", (tmp / "s").string(), "--workers", "0"}).status, 2);
-    EXPECT_EQ(run_tool("brdfd", {"--spool", (tmp / "s").string(), "--poll", "-1"}).status, 2);
-    EXPECT_EQ(run_tool("brdfd", {"--spool", (tmp / "s").string(), "--frobnicate"}).status, 2);
+    const std::string spool = (tmp / "s").string();
+    const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+        {{}, "brdfd: --spool is required"},
+        {{"--spool", spool, "--workers", "0"}, "brdfd: --workers: "},
+        {{"--spool", spool, "--poll", "-1"}, "brdfd: --poll: "},
+        {{"--spool", spool, "--settle", "x"}, "brdfd: --settle: "},
+        {{"--spool", spool, "--frobnicate"}, "brdfd: unknown option --frobnicate"},
+        {{"--frobnicate"}, "brdfd: unknown option --frobnicate"}, // before "--spool is required"
+        {{"--spool", spool, "extra"}, "brdfd: unexpected argument 'extra'"},
+    };
+    for (const auto& [args, start] : cases) {
+        const ProcessResult r = run_tool("brdfd", args);
+        EXPECT_EQ(r.status, 2) << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
+        EXPECT_EQ(r.err.rfind(start, 0), 0u) << "expected '" << start << "...', got " << r.err;
+    }
+    EXPECT_FALSE(fs::exists(tmp / "s")) << "a usage error touches nothing";
     const ProcessResult level =
         run_tool("brdfd", {"--spool", (tmp / "s").string(), "--once", "--log-level", "loud"});
     EXPECT_EQ(level.status, 3);
@@ -121,6 +135,24 @@ TEST(Brdfd, JobOfAKilledDaemonIsRequeuedByTheNextStart) {
     EXPECT_EQ(next.wait(30), 0) << next.log();
     EXPECT_EQ(list_files(spool / "done"), std::vector<std::string>{"victim.json"});
     EXPECT_NE(next.log().find("requeued victim.json"), std::string::npos) << next.log();
+}
+
+// The shipped daemon has no test hook: the variable changes nothing and the code is not in it.
+TEST(Brdfd, ShippedDaemonHasNoTestHook) {
+    const std::string binary = read_file(bin_dir() / "brdfd");
+    EXPECT_EQ(binary.find("BRDFD_TEST_RUNNER"), std::string::npos);
+    EXPECT_EQ(binary.find("brdfd-test-fail"), std::string::npos);
+    EXPECT_NE(read_file(bin_dir() / "brdfd_test").find("BRDFD_TEST_RUNNER"), std::string::npos);
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    submit(spool, "hook.json", "{}"); // the hook would copy it; the pipeline refuses it (no name)
+    std::vector<std::string> env_argv = {"/usr/bin/env", "BRDFD_TEST_RUNNER=sleep:0",
+                                         (bin_dir() / "brdfd").string(), "--spool", spool.string(), "--once"};
+    const ProcessResult r = run_process(env_argv);
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(r.err.find("test hook"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(spool / "results" / "hook.result"));
+    EXPECT_TRUE(fs::exists(spool / "failed" / "hook.json"));
 }
 
 // The real compute pipeline: whatever it grows into, a spec that is not JSON fails alone.

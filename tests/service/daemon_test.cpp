@@ -1,6 +1,7 @@
 // run_daemon with fake job runners: the claim/finish/fail paths, --once, requeueing orphans (and not
 // the jobs of live daemons), two daemons on one spool, status.json, and a graceful stop.
 
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/service/daemon.h>
@@ -11,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include <atomic>
+#include <cstdio>
 #include <future>
 #include <map>
 #include <mutex>
@@ -35,6 +37,9 @@ DaemonOptions options_for(const fs::path& spool, int workers = 1, bool once = tr
     o.workers = workers;
     o.once = once;
     o.poll_seconds = 0.02;
+    // Specs here are renamed in, or there before the daemon starts (taken once settled): a short
+    // settle time keeps these tests quick; the settle tests below set their own.
+    o.settle_seconds = 0.05;
     o.handle_signals = false; // several daemons share this process; they stop through o.stop
     return o;
 }
@@ -77,7 +82,7 @@ private:
         if (text.find("fail-input") != std::string::npos)
             throw InputError(cat(name, ": pigments[0].size.r_eff_um: must be > 0 (got -0.2)"));
         if (text.find("fail-other") != std::string::npos) throw std::runtime_error("out of luck");
-        service::write_file_atomic(results / (spec.stem().string() + ".result"), text, false);
+        write_file_atomically(results / (spec.stem().string() + ".result"), text);
     }
 
     double m_sleep;
@@ -354,13 +359,16 @@ TEST(Daemon, InvalidOptionsAreInputErrors) {
     o.poll_seconds = 0;
     EXPECT_THROW(run_daemon(o, fake.runner()), InputError);
     o.poll_seconds = 0.1;
+    o.settle_seconds = -1;
+    EXPECT_THROW(run_daemon(o, fake.runner()), InputError);
+    o.settle_seconds = 1;
     o.spool.clear();
     EXPECT_THROW(run_daemon(o, fake.runner()), InputError);
 }
 
 
-// inotify: with a 30 s poll, a spec dropped while every worker is idle starts at once, whether it is
-// renamed in (IN_MOVED_TO) or written in place (IN_CLOSE_WRITE).
+// inotify: with a 30 s poll, a spec dropped while every worker is idle starts at once when it is
+// renamed in (IN_MOVED_TO); written in place (IN_CLOSE_WRITE), once the settle time has passed.
 TEST(Daemon, NewSpecWakesAnIdleDaemonWithoutWaitingForThePoll) {
     TempDir tmp;
     const fs::path spool = tmp / "spool";
@@ -368,6 +376,7 @@ TEST(Daemon, NewSpecWakesAnIdleDaemonWithoutWaitingForThePoll) {
     std::stop_source stop;
     DaemonOptions o = options_for(spool, 2, false);
     o.poll_seconds = 30;
+    o.settle_seconds = 0.3;
     o.stop = stop.get_token();
     auto daemon = std::async(std::launch::async, [&] { return run_daemon(o, fake.runner()); });
     ASSERT_TRUE(wait_until([&] { return fs::exists(spool / "status.json"); }));
@@ -376,9 +385,149 @@ TEST(Daemon, NewSpecWakesAnIdleDaemonWithoutWaitingForThePoll) {
     EXPECT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "renamed.json"); }, 1.0));
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     write_file(spool / "incoming" / "written.json", "{}");
-    EXPECT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "written.json"); }, 1.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(150));
+    EXPECT_FALSE(fs::exists(spool / "done" / "written.json")) << "taken before it settled";
+    EXPECT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "written.json"); }, 1.5));
     stop.request_stop();
     EXPECT_EQ(daemon.get(), 0);
+}
+
+/// Writes `content` into `path` in place (no rename), in two halves with a pause between, the way
+/// an editor or a slow network copy might; returns when the file is closed.
+void write_slowly(const fs::path& path, const std::string& content, double pause_seconds) {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fwrite(content.data(), 1, content.size() / 2, f);
+    std::fflush(f);
+    std::this_thread::sleep_for(std::chrono::duration<double>(pause_seconds));
+    std::fwrite(content.data() + content.size() / 2, 1, content.size() - content.size() / 2, f);
+    std::fclose(f);
+}
+
+/// A runner that keeps the text of each spec it was given.
+struct RecordingRunner {
+    std::mutex mutex;
+    std::map<std::string, std::string> seen;
+    JobRunner runner() {
+        return [this](const fs::path& spec, const fs::path&) {
+            std::lock_guard lock(mutex);
+            seen[spec.filename().string()] = read_file(spec);
+        };
+    }
+};
+
+const std::string paused_spec = R"({"name": "slow", "medium": {"albedo": 0.5}, "description": ")" +
+                                std::string(4000, 'x') + "\"}";
+
+// A writer that pauses 3 s in the middle of a spec written in place, three times the settle time:
+// the daemon must wait for the whole spec, with inotify (the file is open: IN_MODIFY without
+// IN_CLOSE_WRITE) and without it (the kernel refuses a read lease on a file open for writing).
+TEST(Daemon, SpecWrittenInPlaceIsNotTakenWhileItsWriterPauses) {
+    for (const bool watch : {true, false}) {
+        SCOPED_TRACE(watch ? "inotify" : "polling only");
+        TempDir tmp;
+        const fs::path spool = tmp / "spool";
+        RecordingRunner recorder;
+        std::stop_source stop;
+        DaemonOptions o = options_for(spool, 1, false);
+        o.watch_incoming = watch;
+        o.poll_seconds = 0.05;
+        o.settle_seconds = 1.0;
+        o.stop = stop.get_token();
+        auto daemon = std::async(std::launch::async, [&] { return run_daemon(o, recorder.runner()); });
+        ASSERT_TRUE(wait_until([&] { return fs::exists(spool / "status.json"); }));
+        write_slowly(spool / "incoming" / "slow.json", paused_spec, 3.0);
+        EXPECT_FALSE(fs::exists(spool / "done" / "slow.json")) << "taken while being written";
+        ASSERT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "slow.json"); }, 5.0));
+        EXPECT_EQ(recorder.seen["slow.json"], paused_spec);
+        stop.request_stop();
+        EXPECT_EQ(daemon.get(), 0);
+    }
+}
+
+// A spec appended to in place, its writer closing it between appends (so no lease and no open file
+// says it is unfinished): taken only once its size and time have stood still for the settle time.
+TEST(Daemon, SpecThatKeepsChangingIsTakenOnlyOnceItSettles) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    RecordingRunner recorder;
+    std::stop_source stop;
+    DaemonOptions o = options_for(spool, 1, false);
+    o.watch_incoming = false;
+    o.poll_seconds = 0.05;
+    o.settle_seconds = 0.6;
+    o.stop = stop.get_token();
+    auto daemon = std::async(std::launch::async, [&] { return run_daemon(o, recorder.runner()); });
+    ASSERT_TRUE(wait_until([&] { return fs::exists(spool / "status.json"); }));
+    const fs::path target = spool / "incoming" / "grow.json";
+    std::string text;
+    for (int i = 0; i < 10; ++i) { // 2 s of appends, 0.2 s apart
+        text += cat("chunk ", i, "\n");
+        write_file(target, text);
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        ASSERT_FALSE(fs::exists(spool / "done" / "grow.json")) << "taken after append " << i;
+    }
+    ASSERT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "grow.json"); }, 3.0));
+    EXPECT_EQ(recorder.seen["grow.json"], text);
+    stop.request_stop();
+    EXPECT_EQ(daemon.get(), 0);
+}
+
+// Renamed in, the protocol: taken at once, however long the settle time.
+TEST(Daemon, RenamedInSpecIsTakenWithoutWaitingToSettle) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    FakeRunner fake;
+    std::stop_source stop;
+    DaemonOptions o = options_for(spool, 1, false);
+    o.poll_seconds = 30;
+    o.settle_seconds = 30;
+    o.stop = stop.get_token();
+    auto daemon = std::async(std::launch::async, [&] { return run_daemon(o, fake.runner()); });
+    ASSERT_TRUE(wait_until([&] { return fs::exists(spool / "status.json"); }));
+    submit(spool, "quick.json");
+    EXPECT_TRUE(wait_until([&] { return fs::exists(spool / "done" / "quick.json"); }, 2.0));
+    stop.request_stop();
+    EXPECT_EQ(daemon.get(), 0);
+}
+
+// --once is not drained while a spec is still being written into incoming/.
+TEST(Daemon, OnceWaitsForASpecBeingWritten) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    fs::create_directories(spool / "incoming");
+    RecordingRunner recorder;
+    DaemonOptions o = options_for(spool, 1, true);
+    o.settle_seconds = 0.2;
+    std::thread writer([&] { write_slowly(spool / "incoming" / "late.json", paused_spec, 1.0); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(100)); // the first half is there
+    EXPECT_EQ(run_daemon(o, recorder.runner()), 0);
+    writer.join();
+    EXPECT_EQ(recorder.seen["late.json"], paused_spec);
+    EXPECT_EQ(list_files(spool / "done"), std::vector<std::string>{"late.json"});
+}
+
+// Messages and status.json name the spool by an absolute path, whatever the daemon was given.
+TEST(Daemon, StatusAndErrorsNameAbsolutePathsThatExist) {
+    TempDir tmp;
+    const fs::path spool = tmp / "spool";
+    submit(spool, "bad.json", "x");
+    DaemonOptions o = options_for(spool, 1, true);
+    o.spool = fs::relative(spool);
+    ASSERT_TRUE(o.spool.is_relative());
+    const JobRunner runner = [](const fs::path& spec, const fs::path&) {
+        throw InputError(cat(spec.string(), ": invalid JSON"));
+    };
+    EXPECT_EQ(run_daemon(o, runner), 1);
+    const auto status = nlohmann::json::parse(read_file(spool / "status.json"));
+    EXPECT_EQ(fs::path(status["spool"].get<std::string>()), fs::canonical(spool));
+    const auto record = nlohmann::json::parse(read_file(spool / "failed" / "bad.error.json"));
+    const std::string error = record["error"];
+    // The spec is named where it is now (failed/), not where it ran (active/).
+    const std::string named = error.substr(0, error.find(": "));
+    EXPECT_TRUE(fs::path(named).is_absolute()) << error;
+    EXPECT_TRUE(fs::exists(named)) << error;
+    EXPECT_EQ(fs::canonical(named), fs::canonical(spool / "failed" / "bad.json")) << error;
 }
 
 // Without the watch (no inotify, or a network file system where it does not fire) polling serves.

@@ -1,13 +1,19 @@
 // brdftool compute / eval / albedo as a user runs them: real processes, exit statuses, output format,
 // the OpenCL-less fallback.
 
+#include <brdf/core/log.h>
 #include <test_support.h>
 
 #include <nlohmann/json.hpp>
 
+#include <cerrno>
 #include <cmath>
 #include <numbers>
+#include <pty.h>
 #include <sstream>
+#include <stdexcept>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace brdf::test {
 namespace {
@@ -122,6 +128,161 @@ TEST(ComputeCli, ShardFlagIsValidated) {
         EXPECT_EQ(r.status, 3) << shard << ": " << r.err;
         EXPECT_NE(r.err.find("--shard"), std::string::npos) << r.err;
     }
+}
+
+/// A small analytic material that computes in about a second on the CPU.
+std::string tiny(const std::string& name, double albedo = 0.9) {
+    return cat(R"({"name": ")", name, R"(", "medium": {"albedo": )", albedo,
+               R"(}, "accuracy": "draft", "spectrum": "rgb", "outputs": ["merl"]})");
+}
+
+std::size_t count_of(const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (std::size_t at = 0; (at = text.find(what, at)) != std::string::npos; at += what.size()) ++n;
+    return n;
+}
+
+/// Runs argv with stderr (and stdout) on a pseudo-terminal: what a user at a terminal sees.
+ProcessResult run_on_terminal(const std::vector<std::string>& argv) {
+    int master = -1;
+    const pid_t pid = forkpty(&master, nullptr, nullptr, nullptr);
+    if (pid < 0) throw std::runtime_error("forkpty failed");
+    if (pid == 0) {
+        std::vector<char*> args;
+        for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+        args.push_back(nullptr);
+        execv(args[0], args.data());
+        _exit(127);
+    }
+    ProcessResult r;
+    char buf[4096];
+    for (;;) {
+        const ssize_t k = ::read(master, buf, sizeof buf);
+        if (k > 0) r.err.append(buf, static_cast<std::size_t>(k));
+        else if (k < 0 && errno == EINTR) continue;
+        else break; // EIO once the child has closed the terminal
+    }
+    ::close(master);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    r.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return r;
+}
+
+// Not a terminal (a pipe here, a log file in CI): no progress bar, no '\r', and the summary line.
+TEST(ComputeCli, QuietWhenStderrIsNotATerminalButSummarises) {
+    TempDir dir;
+    write_file(dir / "q.json", tiny("q"));
+    const ProcessResult r = run_tool("brdftool", {"compute", (dir / "q.json").string(), "-o", (dir / "out").string(),
+                                                  "--device", "cpu"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.err.find('\r'), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("ETA"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.rfind("brdftool compute: 1 materials, 1 written, 0 up to date, 0 failed -> ", 0), 0u) << r.err;
+    EXPECT_EQ(count_of(r.err, "\n"), 1u) << r.err;
+}
+
+// On a terminal: a bar redrawn with '\r', the stage and an ETA, each material's line, the summary.
+TEST(ComputeCli, ProgressBarOnATerminal) {
+    TempDir dir;
+    write_file(dir / "c.json", cat(R"({"materials": [)", tiny("t1"), ", ", tiny("t2", 0.5), "]}"));
+    const ProcessResult r = run_on_terminal({(bin_dir() / "brdftool").string(), "compute", (dir / "c.json").string(),
+                                             "-o", (dir / "out").string(), "--device", "cpu"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find('\r'), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("ETA"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("t1: solve"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("] t1 done in "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("brdftool compute: 2 materials, 2 written"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find('\x1b'), std::string::npos) << "no escape sequences";
+}
+
+// A material that fails is reported once, at the end, and the others are written.
+TEST(ComputeCli, AFailureIsPrintedOnce) {
+    TempDir dir;
+    write_file(dir / "c.json", cat(R"({"materials": [)", tiny("good"), ", ", tiny("bad", 0.5), "]}"));
+    fs::create_directories(dir / "out" / "bad.binary" / "in-the-way"); // its table cannot be written
+    const ProcessResult r = run_tool("brdftool", {"compute", (dir / "c.json").string(), "-o", (dir / "out").string(),
+                                                  "--device", "cpu"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(count_of(r.err, "into place"), 1u) << r.err;
+    EXPECT_EQ(r.err.rfind("brdftool: bad: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find("1 written, 0 up to date, 1 failed"), std::string::npos) << r.err;
+    EXPECT_TRUE(fs::exists(dir / "out" / "good.binary"));
+}
+
+TEST(ComputeCli, AccuracyAndForceFlags) {
+    TempDir dir;
+    write_file(dir / "a.json", tiny("a"));
+    const std::vector<std::string> base = {"compute", (dir / "a.json").string(), "-o", (dir / "out").string(),
+                                           "--device", "cpu"};
+    const auto with = [&](std::vector<std::string> extra) {
+        std::vector<std::string> args = base;
+        args.insert(args.end(), extra.begin(), extra.end());
+        return run_tool("brdftool", args);
+    };
+    ASSERT_EQ(with({}).status, 0);
+    EXPECT_NE(with({}).err.find("0 written, 1 up to date"), std::string::npos);
+    // Another accuracy is another spec: computed again, and stamped so.
+    const ProcessResult custom = with({"--accuracy", "5e-3"});
+    ASSERT_EQ(custom.status, 0) << custom.err;
+    EXPECT_NE(custom.err.find("1 written, 0 up to date"), std::string::npos) << custom.err;
+    const auto report = nlohmann::json::parse(read_file(dir / "out/a.report.json"));
+    EXPECT_EQ(report["spec"]["accuracy"]["tolerance"], 5e-3);
+    EXPECT_NE(with({"--accuracy", "5e-3"}).err.find("0 written, 1 up to date"), std::string::npos);
+    EXPECT_NE(with({"--accuracy", "5e-3", "--force"}).err.find("1 written, 0 up to date"), std::string::npos);
+    const ProcessResult bad = with({"--accuracy", "fastest"});
+    EXPECT_EQ(bad.status, 3) << bad.err;
+    EXPECT_EQ(bad.err.rfind("brdftool: --accuracy: expected draft, default, reference or", 0), 0u) << bad.err;
+    EXPECT_EQ(count_of(bad.err, "\n"), 1u) << bad.err;
+}
+
+/// true when this machine has an OpenCL device the project can use.
+bool opencl_here() { return run_tool("test_cl_probe", {"available"}).out == "1\n"; }
+
+// No writable home (HOME=/nonexistent, as under the shipped systemd unit): PoCL's cache goes to a
+// folder of ours and OpenCL works, instead of "platform found but it has no device".
+TEST(ComputeCli, OpenClWorksWithoutAHome) {
+    if (!opencl_here()) GTEST_SKIP() << "no OpenCL device here";
+    ASSERT_FALSE(fs::exists("/nonexistent"));
+    TempDir dir;
+    write_file(dir / "h.json", tiny("h"));
+    const ProcessResult r = run_process({"/usr/bin/env", "-u", "POCL_CACHE_DIR", "-u", "XDG_CACHE_HOME",
+                                         "HOME=/nonexistent", "TMPDIR=" + dir.path().string(),
+                                         (bin_dir() / "brdftool").string(), "compute", (dir / "h.json").string(),
+                                         "-o", (dir / "out").string(), "--device", "opencl"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto report = nlohmann::json::parse(read_file(dir / "out/h.report.json"));
+    EXPECT_EQ(report["device"].get<std::string>().rfind("opencl", 0), 0u) << report["device"];
+    EXPECT_TRUE(fs::is_directory(dir / cat("brdf-pocl-", ::geteuid()))) << "the private fallback folder";
+    EXPECT_FALSE(fs::exists("/nonexistent")) << "a home that is not there is not created";
+}
+
+// When PoCL still cannot write its cache, the error says so rather than "no device".
+TEST(ComputeCli, OpenClFailureNamesPoclsCacheFolder) {
+    if (!opencl_here()) GTEST_SKIP() << "no OpenCL device here";
+    TempDir dir;
+    write_file(dir / "h.json", tiny("h"));
+    const ProcessResult r = run_process({"/usr/bin/env", "POCL_CACHE_DIR=/dev/null/pocl", (bin_dir() / "brdftool").string(),
+                                         "albedo", (dir / "h.json").string(), "--device", "opencl"});
+    EXPECT_EQ(r.status, 5) << r.err;
+    EXPECT_NE(r.err.find("PoCL could not write its cache folder /dev/null/pocl"), std::string::npos) << r.err;
+    EXPECT_EQ(count_of(r.err, "\n"), 1u) << r.err;
+}
+
+// The example catalogue uses rutile in three materials: its extrapolation warning is one line naming
+// the three places, not three lines (each material's report still carries its own).
+TEST(ComputeCli, EachWarningIsSaidOnce) {
+    const ProcessResult r = run_tool("brdftool", {"eval", (source_dir() / "examples/catalogue.json").string(),
+                                                  "--material", "analytic-hg-orange", "--theta-i", "0",
+                                                  "--theta-o", "0", "--phi", "0", "--device", "cpu"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count_of(r.err, "tio2-rutile: 5 wavelengths"), 1u) << r.err;
+    EXPECT_NE(r.err.find("(at materials[0].pigments[0].material, materials[3].pigments[0].material, "
+                         "materials[6].pigments[0].material)"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(count_of(r.err, " warn "), 4u) << r.err; // pmma, rutile, zno, silica as a binder
 }
 
 } // namespace

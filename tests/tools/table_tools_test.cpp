@@ -334,6 +334,37 @@ TEST(TableTools, DiffOfATableAgainstItsSpecIsZero) {
     for (const auto& ch : j["channels"]) EXPECT_LT(ch["max"].get<double>(), 1e-12) << d.out;
 }
 
+// A table against a catalogue: the material is the one the table records (EXR: its brdf.spec;
+// MERL: the report beside it), and a name that is not there lists those that are.
+TEST(TableTools, DiffOfATableAgainstACataloguePicksTheRecordedMaterial) {
+    TempDir dir;
+    write_file(dir / "cat.json", R"({"defaults": {"accuracy": "draft", "spectrum": "rgb"}, "materials": [
+        {"name": "m1", "medium": {"albedo": 0.7, "phase": "rayleigh"}, "outputs": ["exr"]},
+        {"name": "m2", "medium": {"albedo": 0.4}, "outputs": ["merl"]}]})");
+    const ProcessResult c = run_tool("brdftool", {"compute", (dir / "cat.json").string(), "-o",
+                                                  (dir / "out").string(), "--device", "cpu"});
+    ASSERT_EQ(c.status, 0) << c.err;
+    for (const char* table : {"out/m1.exr", "out/m2.binary"}) {
+        const ProcessResult d = run_tool("brdftool", {"diff", (dir / table).string(), (dir / "cat.json").string(),
+                                                      "--device", "cpu", "--json"});
+        ASSERT_EQ(d.status, 0) << table << ": " << d.err;
+        const nlohmann::json result = nlohmann::json::parse(d.out);
+        for (const auto& ch : result["channels"])
+            EXPECT_LT(ch["max"].get<double>(), 1e-12) << table << ": " << d.out;
+    }
+    // A MERL table with no report beside it records nothing: --material is needed, and says so.
+    fs::copy_file(dir / "out/m2.binary", dir / "bare.binary");
+    const ProcessResult bare = run_tool("brdftool", {"diff", (dir / "bare.binary").string(),
+                                                     (dir / "cat.json").string(), "--device", "cpu"});
+    EXPECT_EQ(bare.status, 3) << bare.err;
+    EXPECT_TRUE(contains(bare.err, "holds 2 materials (m1, m2); choose one with --material NAME")) << bare.err;
+    const ProcessResult wrong = run_tool("brdftool", {"diff", (dir / "bare.binary").string(), (dir / "cat.json").string(),
+                                                      "--device", "cpu", "--material", "m3"});
+    EXPECT_EQ(wrong.status, 3) << wrong.err;
+    EXPECT_TRUE(contains(wrong.err, "no material named 'm3'; it holds m1, m2")) << wrong.err;
+    EXPECT_EQ(std::count(wrong.err.begin(), wrong.err.end(), '\n'), 1) << wrong.err;
+}
+
 TEST(TableTools, HelpDescribesTheCommands) {
     for (const char* cmd : {"convert", "info", "diff"}) {
         const ProcessResult r = run_tool("brdftool", {"help", cmd});

@@ -24,13 +24,13 @@ int run_albedo(const AlbedoFlags& f) {
     for (double t : f.theta_i)
         if (!(t >= 0.0 && t < 90.0)) throw InputError(cat("albedo: --theta-i must be in [0, 90) degrees (got ", t, ")"));
     const Source source = load_source(f.input, f.material, f.device.device());
-    const bool mirror = source.model && source.model->spec.surface == material::Surface::Smooth;
+    const bool mirror = source.model && source.model->spec.surface.kind == material::Surface::Smooth;
     for (double deg : f.theta_i) {
         const double t = deg * std::numbers::pi / 180.0;
-        const service::Rgb a = source.model ? source.model->albedo(t) : formats::directional_albedo(*source.table, t);
+        const model::Rgb a = source.albedo(t);
         std::printf("%.9g %.9g %.9g\n", a[0], a[1], a[2]);
         if (mirror) {
-            const service::Rgb m = source.model->mirror(t);
+            const model::Rgb m = source.model->mirror(t);
             std::printf("mirror %.9g %.9g %.9g\n", m[0], m[1], m[2]);
         }
     }

@@ -7,9 +7,12 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/parse.h>
+#include <brdf/core/progress.h>
 #include <brdf/preview/preview.h>
 #include <brdf/service/compute.h>
 
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <unistd.h>
 
@@ -23,6 +26,8 @@ struct ComputeFlags {
     std::string shard;
     int jobs = 1;
     bool preview = false;
+    bool force = false;
+    std::string accuracy;
     DeviceFlag device;
 };
 
@@ -42,11 +47,16 @@ int run_compute(const ComputeFlags& f) {
     options.formats = f.formats;
     options.device = f.device.device();
     options.jobs = f.jobs;
-    options.progress = isatty(STDERR_FILENO);
+    options.accuracy = f.accuracy;
+    options.force = f.force;
+    options.progress = isatty(STDERR_FILENO); // a bar on a terminal; quiet in logs and pipes
     if (!f.shard.empty()) parse_shard(f.shard, options);
     if (f.preview) options.preview = preview::write_preview;
     std::vector<std::filesystem::path> files(f.specs.begin(), f.specs.end());
+    const auto t0 = std::chrono::steady_clock::now();
     const auto outcomes = service::compute_files(files, options);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // Each failure once, here at the end where it is not scrolled away by the others' progress.
     int failed = 0, skipped = 0;
     for (const auto& o : outcomes) {
         if (!o.ok) {
@@ -55,8 +65,10 @@ int run_compute(const ComputeFlags& f) {
         }
         skipped += o.skipped;
     }
-    std::fprintf(stderr, "brdftool compute: %zu materials, %zu written, %d up to date, %d failed -> %s\n",
-                 outcomes.size(), outcomes.size() - failed - skipped, skipped, failed, f.output.c_str());
+    // The summary line, always (terminal or not).
+    std::fprintf(stderr, "brdftool compute: %zu materials, %zu written, %d up to date, %d failed -> %s (%s)\n",
+                 outcomes.size(), outcomes.size() - failed - skipped, skipped, failed, f.output.c_str(),
+                 format_duration(seconds).c_str());
     return failed > 0 ? 1 : 0; // documented: 1 when at least one material failed
 }
 
@@ -73,6 +85,11 @@ Subcommand add_compute_command(CLI::App& root) {
     app->add_option("--shard", flags->shard, "I/N: compute materials I, I+N, I+2N, ... (cluster job arrays)");
     app->add_flag("--preview", flags->preview, "also write DIR/NAME.png, a sphere rendering of each material");
     app->add_option("--jobs", flags->jobs, "materials computed at once (default 1)")->check(CLI::Range(1, 256));
+    app->add_option("--accuracy", flags->accuracy,
+                    "override every spec's accuracy: draft, default, reference, or a relative "
+                    "tolerance such as 1e-3 (part of the spec hash)")
+        ->type_name("LEVEL|TOL");
+    app->add_flag("--force", flags->force, "recompute materials whose outputs are up to date");
     flags->device.add_to(*app);
     return {app, [flags] { return run_compute(*flags); }};
 }

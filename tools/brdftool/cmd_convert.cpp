@@ -1,15 +1,21 @@
-// brdftool convert IN OUT: one table format into the other, chosen by the file extensions
-// (docs/design.md, "Table formats"). Both extensions and the paths are checked before the 35 MB input is
-// read, so a typo costs nothing; the output is written atomically by write_table, so a failed
-// conversion never leaves a partial OUT (and never clobbers an existing one).
+// brdftool convert IN OUT: a table into MERL .binary or OpenEXR (docs/design.md, "Table formats").
+// IN is recognised by content (formats::detect_format: MERL, OpenEXR, spectral OpenEXR, pbrt-v3
+// Fourier BSDF), OUT's format by its extension. The output extension and the paths are checked
+// before the 35 MB input is read, so a typo costs nothing; the output is written atomically by
+// write_table, so a failed conversion never leaves a partial OUT (and never clobbers an existing
+// one).
 //
 // Values: every valid cell keeps its value up to float32 rounding (what the OpenEXR file stores);
-// MERL -> MERL and EXR -> EXR are exact up to the MERL scale round trip (one ulp of a double).
-// Provenance: the EXR attributes brdf.spec, brdf.generator and brdf.colorspace travel with the
-// table. A .binary file has no metadata, so converting to it drops them (said on a log line, a
-// warning when a non-default colour space is dropped) and converting from it has none to keep.
+// MERL -> MERL and EXR -> EXR are exact up to the MERL scale round trip (one ulp of a double). A
+// spectral table becomes RGB with the CIE 1931 / D65 weights of its wavelengths (here, in the tool
+// layer: formats depends on core only); a Fourier BSDF is evaluated at the cell centres.
+// Provenance: the EXR attributes brdf.spec, brdf.generator and brdf.colorspace (a Fourier BSDF's
+// metadata) travel with the table. A .binary file has no metadata, so converting to it drops them
+// (said on a log line, a warning when a non-default colour space is dropped) and converting from
+// it has none to keep.
 
 #include "commands.h"
+#include "source.h"
 
 #include <formats/table_io.h>
 
@@ -54,6 +60,10 @@ void log_provenance(const formats::BrdfTable& table, formats::TableFormat from,
                   "nothing to keep");
         return;
     }
+    if (from == TableFormat::SpectralExr)
+        log::info("convert: ", in.string(), ": spectral planes integrated to linear Rec.709 (CIE 1931, D65)");
+    if (from == TableFormat::Fourier)
+        log::info("convert: ", in.string(), ": Fourier BSDF evaluated at the bin centres");
     if (to == TableFormat::Exr) {
         log::info("convert: ", out.string(), ": keeping brdf.spec (",
                   table.spec.empty() ? "absent" : cat(table.spec.size(), " bytes"),
@@ -77,9 +87,12 @@ void log_provenance(const formats::BrdfTable& table, formats::TableFormat from,
 
 int run_convert(const ConvertFlags& f) {
     const fs::path in = f.in, out = f.out;
-    // Extensions first (InputError naming the path and listing the supported ones).
-    const formats::TableFormat from = formats::table_format(in);
+    // The output's extension first (InputError naming the path and listing the supported ones).
     const formats::TableFormat to = formats::table_format(out);
+    if (to != formats::TableFormat::Merl && to != formats::TableFormat::Exr)
+        throw InputError(cat(out.string(), ": convert writes .binary (MERL) or .exr (OpenEXR), not ",
+                             formats::to_string(to), " (that is computed from the material: brdftool "
+                             "compute with \"outputs\")"));
     if (same_file(in, out))
         throw InputError(cat(out.string(), ": convert: the output is the input file (", in.string(),
                              "); choose another output path"));
@@ -88,7 +101,8 @@ int run_convert(const ConvertFlags& f) {
         throw InputError(
             cat(out.string(), ": convert: the output is a directory, not a file name"));
 
-    const formats::BrdfTable table = formats::read_table(in);
+    const formats::TableFormat from = formats::detect_format(in); // by content; IoError, InputError
+    const formats::BrdfTable table = formats::read_table(in, from, spectral_to_rgb());
     log_provenance(table, from, to, in, out);
     formats::write_table(out, table);
     log::info("convert: wrote ", out.string(), " (", formats::to_string(to), ", ",
@@ -103,14 +117,16 @@ Subcommand add_convert_command(CLI::App& root) {
     auto flags = std::make_shared<ConvertFlags>();
     Subcommand cmd;
     cmd.app =
-        root.add_subcommand("convert", "Convert a BRDF table between .binary (MERL) and .exr");
+        root.add_subcommand("convert", "Convert a BRDF table (MERL, OpenEXR, spectral OpenEXR, Fourier BSDF) to .binary or .exr");
     CLI::App& app = *cmd.app;
-    app.add_option("IN", flags->in, "table to read (.binary or .exr)")->required();
+    app.add_option("IN", flags->in, "table to read (.binary, .exr, .spectral.exr, Fourier .bsdf)")->required();
     app.add_option("OUT", flags->out, "table to write (.binary or .exr); replaced atomically")
         ->required();
     app.footer(
-        "The formats are chosen by the extensions (.binary: MERL, .exr: OpenEXR;\n"
-        "case-insensitive). Valid values are unchanged beyond float32 rounding (the precision\n"
+        "IN is recognised by its content (a misnamed file is read as what it is, with a warning);\n"
+        "OUT's format by its extension (.binary: MERL, .exr: OpenEXR; case-insensitive). A spectral\n"
+        "table becomes linear Rec.709 (CIE 1931, D65); a Fourier BSDF is evaluated at the bin\n"
+        "centres. Valid values are unchanged beyond float32 rounding (the precision\n"
         "of the .exr file). brdf.spec, brdf.generator and brdf.colorspace are kept from .exr to\n"
         ".exr; a .binary file has no metadata, so they are dropped going to it (brdftool\n"
         "--log-level info convert ... says so). OUT is written to a temporary file and renamed,\n"

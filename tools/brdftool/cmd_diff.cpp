@@ -10,7 +10,7 @@
 #include "commands.h"
 #include "source.h"
 
-#include <brdf/service/cl_table_fill.h>
+#include <brdf/model/cl_table_fill.h>
 
 #include <formats/halfdiff.h>
 #include <formats/table_io.h>
@@ -18,6 +18,7 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/parse.h>
+#include <brdf/material/spec.h>
 
 #include <nlohmann/json.hpp>
 
@@ -26,19 +27,22 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 
 namespace brdf::tool {
 
-/// One operand of `diff` as a table: a table file by its extension (formats::read_table). A
+/// One operand of `diff` as a table: a table file of any format (formats::read_table: recognised by
+/// content; a Fourier BSDF evaluated at the cell centres, a spectral one as RGB). A
 /// material spec (.json) is refused for now (InputError naming the path). Throws what read_table
 /// throws: InputError for an unknown extension, IoError / FormatError for a bad file.
 formats::BrdfTable load_operand(const std::filesystem::path& path, const std::string& material,
-                                service::Device device);
+                                model::Device device, const std::string& recorded = {});
 
 namespace {
 
@@ -77,8 +81,36 @@ int run_diff(const DiffFlags& f) {
             throw InputError(cat("diff: --floor must be > 0 (1/sr; got ", f.floor, ")"));
     }
     const fs::path path_a = f.a, path_b = f.b;
-    const formats::BrdfTable a = load_operand(path_a, f.material, f.device.device());
-    const formats::BrdfTable b = load_operand(path_b, f.material, f.device.device());
+    // A table against a catalogue: the material is the one the table says it came from (unless
+    // --material says otherwise). Tables are read first so that their record is known.
+    const bool a_spec = lower_extension(path_a) == ".json", b_spec = lower_extension(path_b) == ".json";
+    // Errors still come in operand order: A's before B's.
+    std::optional<formats::BrdfTable> loaded_a, loaded_b;
+    std::string recorded;
+    if (!a_spec) {
+        loaded_a = formats::read_table(path_a);
+        recorded = recorded_material(path_a, *loaded_a);
+    }
+    std::exception_ptr b_error;
+    if (!b_spec) {
+        try {
+            loaded_b = formats::read_table(path_b);
+            if (recorded.empty()) recorded = recorded_material(path_b, *loaded_b);
+        } catch (...) {
+            b_error = std::current_exception();
+        }
+    }
+    if (a_spec) {
+        if (b_error) { // A's own faults first, then B's
+            material::load_specs(path_a);
+            std::rethrow_exception(b_error);
+        }
+        loaded_a = load_operand(path_a, f.material, f.device.device(), recorded);
+    }
+    if (b_error) std::rethrow_exception(b_error);
+    if (b_spec) loaded_b = load_operand(path_b, f.material, f.device.device(), recorded);
+    const formats::BrdfTable& a = *loaded_a;
+    const formats::BrdfTable& b = *loaded_b;
     const formats::TableDiff d = formats::diff(a, b, floor);
     const bool compared = d.compared_cells > 0;
 
@@ -153,10 +185,10 @@ int run_diff(const DiffFlags& f) {
 } // namespace
 
 formats::BrdfTable load_operand(const std::filesystem::path& path, const std::string& material,
-                                service::Device device) {
-    if (lower_extension(path) != ".json") return formats::read_table(path);
-    const Source source = load_source(path, material, device);
-    return service::fill_table(service::prepare_fill(*source.model), device);
+                                model::Device device, const std::string& recorded) {
+    if (lower_extension(path) != ".json") return formats::read_table(path, spectral_to_rgb());
+    const Source source = load_source(path, material, device, recorded);
+    return model::fill_table(model::prepare_fill(*source.model), device);
 }
 
 Subcommand add_diff_command(CLI::App& root) {

@@ -35,7 +35,7 @@ void check_angles(double ti, double to, double phi, const std::string& where) {
 int run_eval(const EvalFlags& f) {
     const Source source = load_source(f.input, f.material, f.device.device());
     const auto print = [&](double ti, double to, double phi) {
-        const service::Rgb v = source.brdf(radians(ti), radians(to), radians(phi));
+        const model::Rgb v = source.brdf(radians(ti), radians(to), radians(phi));
         std::printf("%.9g %.9g %.9g\n", v[0], v[1], v[2]);
     };
     if (f.theta_i || f.theta_o || f.phi) {

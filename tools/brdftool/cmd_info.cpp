@@ -1,12 +1,18 @@
-// brdftool info FILE [--json]: what a table file holds (docs/design.md, "Executables"): its format,
-// layout and size, its provenance (the EXR brdf.* attributes), how many cells hold data,
-// per-channel value statistics (formats::table_stats) and the directional albedo at a few incidence
-// angles (formats::directional_albedo). Human-readable by default; --json prints one JSON object
-// with the same content for scripts.
+// brdftool info FILE [--json]: what a table file holds (docs/design.md, "Executables"): its format
+// (recognised by content, formats::detect_format), layout and size, its provenance (the EXR brdf.*
+// attributes, the Fourier BSDF's metadata), how many cells hold data, per-channel value statistics
+// (formats::table_stats) and the directional albedo at a few incidence angles
+// (formats::directional_albedo). A spectral table also lists its wavelengths, and its statistics
+// are those of its RGB; a Fourier BSDF has no cells: its nodes, orders, channels, eta and metadata
+// are printed, and the albedo integrates its evaluation. Human-readable by default; --json prints
+// one JSON object with the same content for scripts.
 
 #include "commands.h"
+#include "source.h"
 
 #include <formats/exr/exr.h>
+#include <formats/exr/spectral_exr.h>
+#include <formats/fourier/fourier.h>
 #include <formats/merl/merl.h>
 #include <formats/table_io.h>
 
@@ -22,6 +28,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <system_error>
@@ -61,13 +68,89 @@ std::string spec_summary(const std::string& spec) {
     return cat(first, " ... (", spec.size(), " bytes; --json prints all of it)");
 }
 
+/// A Fourier BSDF: its layout and metadata, and the albedo of its evaluation.
+int info_fourier(const fs::path& path, std::uintmax_t size, bool json) {
+    const formats::FourierBsdf b = formats::read_fourier_bsdf(path);
+    const formats::FourierProvenance p = formats::fourier_provenance(b);
+    std::size_t pairs_with_data = 0;
+    for (const auto& s : b.series) pairs_with_data += s.length > 0;
+    std::vector<AlbedoRow> albedo;
+    for (double deg : albedo_angles_deg) {
+        const double ti = deg * formats::pi / 180.0;
+        albedo.push_back({deg, formats::directional_albedo(
+                                   [&](double to, double phi) { return formats::evaluate(b, ti, to, phi); }, ti)});
+    }
+    const std::string channels = b.channels == 3 ? "Y, R, B" : "Y";
+    if (json) {
+        nlohmann::ordered_json out;
+        out["file"] = path.string();
+        out["format"] = formats::to_string(formats::TableFormat::Fourier);
+        out["file_size_bytes"] = size;
+        out["layout"] = "SCATFUN v1: Catmull-Rom in mu_i, mu_o x Fourier series in phi";
+        out["nodes"] = b.nodes();
+        out["mu"] = b.mu;
+        out["max_order"] = b.max_order;
+        out["channels"] = channels;
+        out["eta"] = b.eta;
+        out["alpha"] = b.alpha;
+        out["coefficients"] = b.coefficients.size();
+        out["pairs_with_data"] = pairs_with_data;
+        out["units"] = "1/sr";
+        nlohmann::ordered_json provenance = nlohmann::ordered_json::object();
+        if (p.ours) {
+            provenance["brdf.spec"] = p.spec;
+            provenance["brdf.generator"] = p.generator;
+            provenance["brdf.colorspace"] = p.colorspace;
+        } else if (!b.metadata.empty()) {
+            provenance["metadata"] = b.metadata; // foreign (layerlab writes JSON describing its layers)
+        }
+        out["provenance"] = provenance;
+        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+        for (const AlbedoRow& row : albedo) rows.push_back({{"theta_i_deg", row.theta_i_deg}, {"rgb", row.rho}});
+        out["directional_albedo"] = rows;
+        std::cout << out.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+        return 0;
+    }
+    std::ostringstream os;
+    os << path.string() << '\n';
+    os << "  format:      " << formats::to_string(formats::TableFormat::Fourier) << " (SCATFUN v1), " << size
+       << " bytes\n";
+    os << "  layout:      " << b.nodes() << " nodes in mu from " << b.mu.front() << " to " << b.mu.back()
+       << ", Fourier series of up to " << b.max_order << " orders, channels " << channels << "\n";
+    os << "               " << b.coefficients.size() << " coefficients in " << pairs_with_data
+       << " of " << b.series.size() << " node pairs; eta " << b.eta << ", alpha " << b.alpha[0] << ' '
+       << b.alpha[1] << '\n';
+    if (p.ours) {
+        os << "  colorspace:  " << (p.colorspace.empty() ? "(absent)" : p.colorspace) << '\n';
+        os << "  generator:   " << (p.generator.empty() ? "(absent)" : p.generator) << '\n';
+        os << "  spec:        " << (p.spec.empty() ? "(absent)" : spec_summary(p.spec)) << '\n';
+    } else {
+        os << "  metadata:    " << (b.metadata.empty() ? "(none)" : spec_summary(b.metadata)) << '\n';
+    }
+    char line[128];
+    os << "  directional albedo (the Fourier series evaluated as pbrt-v3 does):\n";
+    std::snprintf(line, sizeof line, "    %-9s %12s %12s %12s\n", "theta_i", "red", "green", "blue");
+    os << line;
+    for (const AlbedoRow& row : albedo) {
+        std::snprintf(line, sizeof line, "    %5.0f deg %12.6g %12.6g %12.6g\n", row.theta_i_deg, row.rho[0],
+                      row.rho[1], row.rho[2]);
+        os << line;
+    }
+    std::cout << os.str();
+    return 0;
+}
+
 int run_info(const InfoFlags& f) {
     const fs::path path = f.file;
-    const formats::TableFormat format = formats::table_format(path); // InputError on an extension
-    const formats::BrdfTable table = formats::read_table(path);      // IoError / FormatError
+    const formats::TableFormat format = formats::detect_format(path); // by content; IoError, InputError
     std::error_code ec;
     const std::uintmax_t size = fs::file_size(path, ec);
     if (ec) throw IoError(cat(path.string(), ": cannot stat: ", ec.message()));
+    if (format == formats::TableFormat::Fourier) return info_fourier(path, size, f.json);
+    std::optional<formats::SpectralTable> spectral;
+    if (format == formats::TableFormat::SpectralExr) spectral = formats::read_spectral_exr(path);
+    const formats::BrdfTable table = spectral ? spectral_to_rgb()(*spectral)
+                                              : formats::read_table(path, format); // IoError / FormatError
 
     const formats::TableStats stats = formats::table_stats(table);
     // Cells above the horizon without data: 0 for computed tables, the unmeasured cells of MERL's
@@ -83,7 +166,7 @@ int run_info(const InfoFlags& f) {
     for (double deg : albedo_angles_deg)
         albedo.push_back({deg, formats::directional_albedo(table, deg * formats::pi / 180.0)});
 
-    const bool is_exr = format == formats::TableFormat::Exr;
+    const bool is_exr = format == formats::TableFormat::Exr || format == formats::TableFormat::SpectralExr;
     if (f.json) {
         nlohmann::ordered_json out;
         out["file"] = path.string();
@@ -96,6 +179,11 @@ int run_info(const InfoFlags& f) {
         out["cells"] = formats::cells;
         out["units"] = "1/sr";
         if (!is_exr) out["merl_scales"] = formats::merl_scales;
+        if (spectral) {
+            out["wavelengths_nm"] = spectral->wavelengths_nm;
+            out["spectral_layout_version"] = formats::spectral_layout_version;
+            out["values"] = "RGB of the spectral planes (CIE 1931, D65, linear Rec.709)";
+        }
         nlohmann::ordered_json provenance = nlohmann::ordered_json::object();
         if (is_exr) {
             if (!table.spec.empty()) provenance["brdf.spec"] = table.spec;
@@ -132,6 +220,10 @@ int run_info(const InfoFlags& f) {
         os << " (stored / scale " << num(formats::merl_scales[0]) << ' '
            << num(formats::merl_scales[1]) << ' ' << num(formats::merl_scales[2]) << ')';
     os << '\n';
+    if (spectral)
+        os << "  wavelengths: " << spectral->wavelengths_nm.size() << " (" << spectral->wavelengths_nm.front()
+           << " to " << spectral->wavelengths_nm.back()
+           << " nm), one T.<wavelength>nm channel each; values below are their RGB (CIE 1931, D65)\n";
     if (is_exr) {
         os << "  colorspace:  " << table.colorspace << '\n';
         os << "  generator:   " << (table.generator.empty() ? "(absent)" : table.generator) << '\n';
@@ -177,7 +269,7 @@ Subcommand add_info_command(CLI::App& root) {
     cmd.app = root.add_subcommand(
         "info", "Format, layout, provenance and value statistics of a BRDF table");
     CLI::App& app = *cmd.app;
-    app.add_option("FILE", flags->file, "table (.binary or .exr)")->required();
+    app.add_option("FILE", flags->file, "table (.binary, .exr, .spectral.exr, Fourier .bsdf)")->required();
     app.add_flag("--json", flags->json, "print one JSON object instead of text");
     app.footer("Prints the format, file size, layout (90 x 90 x 180 half/difference cells), "
                "provenance (the\n"
@@ -185,7 +277,9 @@ Subcommand add_info_command(CLI::App& root) {
                "none), the\n"
                "cells with data and below the horizon, min / max / mean per channel (1/sr, "
                "unweighted over\n"
-               "cells with data) and the directional albedo at theta_i = 0, 30, 60, 80 degrees.");
+               "cells with data) and the directional albedo at theta_i = 0, 30, 60, 80 degrees.\n"
+               "The format is recognised by content. A spectral .exr lists its wavelengths; a Fourier\n"
+               ".bsdf (pbrt-v3) prints nodes, orders, channels, eta and its metadata instead of cells.");
     cmd.run = [flags]() -> int { return run_info(*flags); };
     return cmd;
 }

@@ -31,8 +31,8 @@ int run_render(RenderFlags& f) {
     preview::check_options(f.options);
 
     const Source source = load_source(f.input, f.material, f.device.device());
-    if (source.model && source.model->spec.surface == material::Surface::Smooth) {
-        const service::SolvedMaterial& m = *source.model;
+    if (source.model && source.model->spec.surface.kind == material::Surface::Smooth) {
+        const model::SolvedMaterial& m = *source.model;
         f.options.mirror = [&m](double theta) { return m.mirror(theta); };
     } else if (source.table) {
         log::info(f.input, ": a table holds no mirror reflection; rendering the diffuse part only");

@@ -1,12 +1,19 @@
 // brdftool: compute, inspect and convert BRDF tables. See ../../README.md and docs/design.md.
 // This is one of the two places errors are caught (the other is each daemon job): every brdf::Error
 // becomes one line on stderr and its documented exit status; anything else is an internal error.
+//
+// Like git: `brdftool help` prints the command list (status 0), `brdftool` alone prints it too but
+// exits 2 (nothing was done: a usage error), and every usage error is one line on stderr,
+// "brdftool: compute: unknown option --foo (see 'brdftool help compute')", exit status 2.
 
 #include "commands.h"
 
+#include <brdf/cl/context.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/version.h>
+
+#include <usage.h>
 
 #include <cstdio>
 #include <exception>
@@ -18,11 +25,25 @@ namespace {
 constexpr int usage_status = 2;
 constexpr int internal_status = 70;
 
-const char* exit_status_help = R"(Exit status:
+const char* exit_status_help = R"(Run 'brdftool help COMMAND' (or 'brdftool COMMAND --help') for a command's options.
+
+Exit status:
   0  success            2  usage error          3  invalid input (spec, flags, values)
   4  malformed table    5  OpenCL device error  6  numerical failure
   7  file I/O error     8  resource limit       70 internal error
   1  compute: at least one material failed (the others were written))";
+
+/// A usage error, already worded; printed as "brdftool: MESSAGE".
+struct UsageError {
+    std::string message;
+};
+
+/// How to get help for what the user was typing.
+std::string help_hint(const CLI::App& root) {
+    const CLI::App& command = brdf::tool::innermost_command(root);
+    return &command == &root ? std::string(" (see 'brdftool help')")
+                             : " (see 'brdftool help " + command.get_name() + "')";
+}
 
 } // namespace
 
@@ -51,32 +72,59 @@ int main(int argc, char** argv) {
 
     // `brdftool help [CMD]` prints the same usage as `brdftool CMD --help`.
     std::string help_topic;
-    CLI::App* help = app.add_subcommand("help", "Show usage of brdftool or of one subcommand");
-    help->add_option("command", help_topic, "subcommand name");
+    CLI::App* help = app.add_subcommand("help", "Show the command list, or the usage of one command");
+    help->add_option("command", help_topic, "command name");
+    tool::keep_unknown_arguments(app);
 
+    // The root's own usage: app.help() would show the usage of whichever subcommand was parsed.
+    const auto command_list = [&app] {
+        return app.get_formatter()->make_help(&app, app.get_name(), CLI::AppFormatMode::Normal);
+    };
+    if (argc <= 1) { // nothing asked: the command list, as git does, but not a success
+        std::cout << command_list();
+        return usage_status;
+    }
     try {
-        app.parse(argc, argv);
+        try {
+            app.parse(argc, argv);
+        } catch (const CLI::Success&) { // --help, --version
+            throw;
+        } catch (const CLI::ParseError& e) {
+            throw UsageError{*tool::usage_problem(app, &e) + help_hint(app)};
+        }
+        if (const auto problem = tool::usage_problem(app, nullptr))
+            throw UsageError{*problem + help_hint(app)};
         if (!log_level.empty()) log::set_level(log::parse_level(log_level));
         if (help->parsed()) {
             if (help_topic.empty()) {
-                std::cout << app.help();
+                std::cout << command_list();
+                return 0;
+            }
+            if (help_topic == "help") {
+                std::cout << help->help(app.get_name());
                 return 0;
             }
             for (const tool::Subcommand& c : commands)
                 if (c.app->get_name() == help_topic) {
-                    std::cout << c.app->help();
+                    std::cout << c.app->help(app.get_name());
                     return 0;
                 }
-            throw InputError(cat("help: unknown subcommand '", help_topic, "'"));
+            throw UsageError{cat("help: unknown command '", help_topic, "' (see 'brdftool help')")};
         }
+        // Before any thread starts and before OpenCL is first touched: PoCL's kernel cache must go
+        // somewhere writable (a home that is not there, a read-only one).
+        brdf::cl::prepare_environment();
         for (const tool::Subcommand& c : commands)
             if (c.app->parsed()) return c.run();
+        throw UsageError{"no command given (see 'brdftool help')"};
+    } catch (const UsageError& e) {
+        std::fprintf(stderr, "brdftool: %s\n", e.message.c_str());
         return usage_status;
     } catch (const CLI::ParseError& e) {
-        const int status = app.exit(e);
-        return status == 0 ? 0 : usage_status;
+        return app.exit(e); // help or version, printed on stdout, status 0
     } catch (const Error& e) {
-        std::fprintf(stderr, "brdftool: %s\n", e.what());
+        std::fprintf(stderr, "brdftool: %s%s\n", e.kind() == ErrorKind::Internal ? "internal error: " : "",
+                     e.what());
         return exit_status(e.kind());
     } catch (const std::exception& e) {
         std::fprintf(stderr, "brdftool: internal error: %s\n", e.what());

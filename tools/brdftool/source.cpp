@@ -3,9 +3,14 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/material/spec.h>
+#include <brdf/material/spectrum.h>
+#include <formats/exr/spectral_exr.h>
 #include <formats/table_io.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
+#include <fstream>
 
 namespace brdf::tool {
 
@@ -14,7 +19,7 @@ void DeviceFlag::add_to(CLI::App& app) {
         ->check(CLI::IsMember({"opencl", "cpu"}));
 }
 
-service::Device DeviceFlag::device() const { return value == "cpu" ? service::Device::Cpu : service::Device::OpenCL; }
+model::Device DeviceFlag::device() const { return value == "cpu" ? model::Device::Cpu : model::Device::OpenCL; }
 
 bool is_spec_file(const std::filesystem::path& path) {
     std::string ext = path.extension().string();
@@ -22,35 +27,75 @@ bool is_spec_file(const std::filesystem::path& path) {
     return ext == ".json";
 }
 
-Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device) {
+Source load_source(const std::filesystem::path& path, const std::string& material, model::Device device,
+                   const std::string& recorded) {
     Source s;
     if (!is_spec_file(path)) {
         if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
-        s.table = formats::read_table(path);
+        const formats::TableFormat format = formats::detect_format(path);
+        if (format == formats::TableFormat::Fourier)
+            s.fourier = formats::read_fourier_bsdf(path);
+        else
+            s.table = formats::read_table(path, format, spectral_to_rgb());
         return s;
     }
     std::vector<material::MaterialSpec> specs = material::load_specs(path);
+    std::string names;
+    for (const auto& m : specs) names += cat(names.empty() ? "" : ", ", m.name);
+    const std::string wanted = !material.empty() ? material : specs.size() > 1 ? recorded : std::string();
     const material::MaterialSpec* chosen = nullptr;
-    if (material.empty()) {
-        if (specs.size() != 1) {
-            std::string names;
-            for (const auto& m : specs) names += cat(names.empty() ? "" : ", ", m.name);
+    if (wanted.empty()) {
+        if (specs.size() != 1)
             throw InputError(cat(path.string(), ": holds ", specs.size(), " materials (", names,
                                  "); choose one with --material NAME"));
-        }
         chosen = &specs.front();
     } else {
         for (const auto& m : specs)
-            if (m.name == material) chosen = &m;
-        if (!chosen) throw InputError(cat(path.string(), ": no material named '", material, "'"));
+            if (m.name == wanted) chosen = &m;
+        if (!chosen)
+            throw InputError(cat(path.string(), ": no material named '", wanted, "'",
+                                 material.empty() ? " (the name the table records)" : "", "; it holds ",
+                                 names, material.empty() ? "; choose one with --material NAME" : ""));
     }
-    s.model = service::solve_material(*chosen, device);
+    s.model = model::solve_material(*chosen, device);
     return s;
 }
 
-service::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {
+std::string recorded_material(const std::filesystem::path& table_path, const formats::BrdfTable& table) {
+    const auto name_in = [](const nlohmann::json& j) {
+        return j.is_object() && j.contains("name") && j["name"].is_string() ? j["name"].get<std::string>()
+                                                                            : std::string();
+    };
+    if (!table.spec.empty())
+        if (const std::string name = name_in(nlohmann::json::parse(table.spec, nullptr, false)); !name.empty())
+            return name;
+    std::filesystem::path report = table_path;
+    report.replace_extension(".report.json");
+    std::ifstream in(report);
+    if (!in) return {};
+    return name_in(nlohmann::json::parse(in, nullptr, false));
+}
+
+model::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {
     if (model) return model->brdf(theta_i, theta_o, phi);
+    if (fourier) return formats::evaluate(*fourier, theta_i, theta_o, phi);
     return formats::lookup(*table, theta_i, theta_o, phi);
+}
+
+model::Rgb Source::albedo(double theta_i) const {
+    if (model) return model->albedo(theta_i);
+    if (fourier)
+        return formats::directional_albedo(
+            [&](double theta_o, double phi) { return formats::evaluate(*fourier, theta_i, theta_o, phi); },
+            theta_i);
+    return formats::directional_albedo(*table, theta_i);
+}
+
+formats::SpectralToRgb spectral_to_rgb() {
+    return [](const formats::SpectralTable& spectral) {
+        const material::SpectralSet set = material::SpectralSet::integrating(spectral.wavelengths_nm);
+        return formats::spectral_to_rgb(spectral, set.rgb_weights(), formats::default_colorspace);
+    };
 }
 
 } // namespace brdf::tool

@@ -1,9 +1,13 @@
 #pragma once
 // What eval, albedo and diff read: a material spec (solved on the spot, evaluated exactly at the
-// requested angles) or a table file (.binary, .exr; evaluated by nearest-bin lookup).
+// requested angles), a pbrt-v3 Fourier BSDF (.bsdf; evaluated as pbrt-v3 does, formats::evaluate)
+// or a table file (.binary, .exr, spectral .exr as RGB; evaluated by nearest-bin lookup). Files are
+// recognised by content (formats::detect_format).
 
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
+#include <formats/fourier/fourier.h>
 #include <formats/table.h>
+#include <formats/table_io.h>
 
 #include <CLI/CLI.hpp>
 
@@ -17,19 +21,36 @@ namespace brdf::tool {
 struct DeviceFlag {
     std::string value = "opencl";
     void add_to(CLI::App& app);
-    service::Device device() const;
+    model::Device device() const;
 };
 
 struct Source {
-    std::optional<service::SolvedMaterial> model;
+    std::optional<model::SolvedMaterial> model;
+    std::optional<formats::FourierBsdf> fourier;
     std::optional<formats::BrdfTable> table;
 
     /// BRDF (1/sr) at angles in radians.
-    service::Rgb brdf(double theta_i, double theta_o, double phi) const;
+    model::Rgb brdf(double theta_i, double theta_o, double phi) const;
+    /// Directional-hemispherical reflectance at theta_i (radians): the model's, the Fourier BSDF's
+    /// by formats::directional_albedo's quadrature of evaluate, or the table's by lookup.
+    model::Rgb albedo(double theta_i) const;
 };
 
-/// A spec file (.json: the material named `material`, or its only one) or a table file.
-Source load_source(const std::filesystem::path& path, const std::string& material, service::Device device);
+/// RGB of a spectral table: the CIE 1931 / D65 weights of material::SpectralSet::integrating for
+/// its wavelengths, linear Rec.709 (formats::read_table's converter).
+formats::SpectralToRgb spectral_to_rgb();
+
+/// A spec file (.json: the material named `material`, or its only one) or a table file. `recorded`
+/// (diff TABLE CATALOGUE: the material the table says it was computed from) picks the material of
+/// a spec holding several when `material` is empty. A name that is not there is an InputError
+/// listing the names there are.
+Source load_source(const std::filesystem::path& path, const std::string& material, model::Device device,
+                   const std::string& recorded = {});
+
+/// The name of the material a table file was computed from: the "name" of the spec in its EXR
+/// brdf.spec attribute, else of the report written beside it (DIR/NAME.report.json for
+/// DIR/NAME.binary or DIR/NAME.exr); empty when neither says.
+std::string recorded_material(const std::filesystem::path& table_path, const formats::BrdfTable& table);
 
 bool is_spec_file(const std::filesystem::path& path);
 

@@ -2,12 +2,13 @@
 # Fuzzes the table readers and the spec parser with libFuzzer:
 #   tools/dev/fuzz.sh [SECONDS]        (default 60 seconds per target)
 # Configures a clang-14 build in build-fuzz (-DBRDF_FUZZ=ON, AddressSanitizer + UBSan, the whole
-# project coverage-instrumented), builds fuzz_merl, fuzz_exr and fuzz_spec, and runs each for
-# SECONDS on its seed corpus tests/data/fuzz/{merl,exr,spec} (read only; new inputs go to
+# project coverage-instrumented), builds fuzz_merl, fuzz_exr, fuzz_fourier, fuzz_spectral_exr,
+# fuzz_rgl and fuzz_spec, and runs each for SECONDS on its seed corpus
+# tests/data/fuzz/{merl,exr,fourier,spectral_exr,rgl,spec} (read only; new inputs go to
 # build-fuzz/corpus/NAME). A crash, hang, leak or sanitizer report stops that target, leaves the
 # input in build-fuzz/artifacts/NAME/, and makes the script exit 1 after the others have run.
 # Keep each such input in tests/data/fuzz/regressions/ (named NAME-WHAT.ext, NAME in merl, exr,
-# spec): test_fuzz_regressions replays it in every build once the bug is fixed.
+# fourier, spectral, spec): test_fuzz_regressions replays it in every build once the bug is fixed.
 # Needs the Debian packages clang-14 and libclang-rt-14-dev (tools/dev/install-deps.sh --fuzz).
 # Environment: JOBS (build parallelism, default 1), BUILD (folder, default build-fuzz),
 # CXX (default clang++-14).
@@ -26,21 +27,23 @@ command -v "$cxx" >/dev/null || {
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$cxx" \
   -DBRDF_FUZZ=ON -DBRDF_SANITIZE=address,undefined -DCMAKE_CXX_FLAGS=-fsanitize=fuzzer-no-link \
   -DBRDF_BUILD_TESTS=OFF -DBRDF_BUILD_BENCH=OFF >/dev/null
-cmake --build "$build" -j "${JOBS:-1}" --target fuzz_merl fuzz_exr fuzz_spec
+cmake --build "$build" -j "${JOBS:-1}" --target fuzz_merl fuzz_exr fuzz_fourier fuzz_spectral_exr fuzz_rgl fuzz_spec
 
 # Leaks are reported (detect_leaks); UBSan findings abort (-fno-sanitize-recover at build time).
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:allocator_may_return_null=1}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 
 failed=()
-for name in merl exr spec; do
+for name in merl exr fourier spectral_exr rgl spec; do
   corpus="$build/corpus/$name"
   artifacts="$build/artifacts/$name"
   mkdir -p "$corpus" "$artifacts"
   args=(-max_total_time="$seconds" -timeout=25 -rss_limit_mb=4096 -print_final_stats=1
         -artifact_prefix="$artifacts/")
-  # A valid OpenEXR table is ~35 kB; the others stay small.
+  # A valid OpenEXR table is ~35 kB, the RGL seeds up to ~8 kB; the others stay small.
   [ "$name" = exr ] && args+=(-max_len=65536)
+  [ "$name" = rgl ] && args+=(-max_len=16384)
+  [ "$name" = spectral_exr ] && args+=(-max_len=65536)
   [ "$name" = spec ] && args+=(-dict="$root/tests/fuzz/spec.dict" -max_len=8192)
   echo "== fuzz_$name: $seconds s" >&2
   if ! "$build/bin/fuzz_$name" "${args[@]}" "$corpus" "$root/tests/data/fuzz/$name" \

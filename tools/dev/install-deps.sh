@@ -12,6 +12,7 @@ packages=(
   nlohmann-json3-dev libcli11-dev
   libopenblas-dev liblapacke-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev
+  python3 python3-numpy
 )
 
 # Optional, not installed by default: clang with libFuzzer for tools/dev/fuzz.sh (tests/fuzz,

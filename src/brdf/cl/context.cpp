@@ -1,18 +1,23 @@
 #include <brdf/cl/context.h>
 
 #include <brdf/cl/kernel_sources.h>
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
+#include <brdf/core/hash.h>
 #include <brdf/core/log.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <fcntl.h>
 #include <fstream>
 #include <random>
 #include <set>
 #include <sstream>
+#include <sys/stat.h>
 #include <system_error>
 #include <unistd.h>
 #include <vector>
@@ -48,6 +53,7 @@ struct Enumerated {
 };
 
 Enumerated enumerate_devices() {
+    prepare_environment();
     Enumerated result;
     std::vector<::cl::Platform> platforms;
     const cl_int err = ::cl::Platform::get(&platforms);
@@ -172,27 +178,10 @@ void inline_includes(std::string_view text, const std::string& file, const Read&
 
 // ---- disk cache of program binaries ---------------------------------------------------------
 // File opencl/HASH.bin: magic, the full key (checked on load, so a hash collision is a miss, never
-// a wrong program), then the device binary. Written to a temporary name and renamed, so concurrent
-// processes (brdfd and brdftool) never read a half-written file.
+// a wrong program), then the device binary. Written with core's AtomicFile.
 
 constexpr std::string_view cache_magic = "BRDFCLB1";
 constexpr std::uint64_t max_cache_file_bytes = std::uint64_t{1} << 30;
-
-std::uint64_t fnv1a64(std::string_view data) {
-    std::uint64_t h = 0xcbf29ce484222325ull;
-    for (unsigned char c : data) {
-        h ^= c;
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-
-std::string hex(std::uint64_t v) {
-    static const char digits[] = "0123456789abcdef";
-    std::string s(16, '0');
-    for (int i = 15; i >= 0; --i, v >>= 4) s[static_cast<std::size_t>(i)] = digits[v & 15];
-    return s;
-}
 
 void put_u64(std::string& out, std::uint64_t v) {
     for (int i = 0; i < 8; ++i) out += static_cast<char>((v >> (8 * i)) & 0xff);
@@ -234,25 +223,98 @@ bool cache_store(const fs::path& file, const std::string& key,
     data += key;
     put_u64(data, binary.size());
     data.append(binary.begin(), binary.end());
-    static std::atomic<unsigned> counter{0};
-    const fs::path tmp = fs::path(file).concat(cat(".tmp.", ::getpid(), ".", counter++));
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out.write(data.data(), static_cast<std::streamsize>(data.size())) || !out.flush()) {
-            std::error_code ec;
-            fs::remove(tmp, ec);
-            return false;
-        }
+    // Concurrent processes (brdfd and brdftool) never read a half-written binary.
+    try {
+        write_file_atomically(file, data);
+        return true;
+    } catch (const Error& e) {
+        log::debug("OpenCL binary cache: ", e.what());
+        return false;
     }
-    std::error_code ec;
-    fs::rename(tmp, file, ec);
-    if (ec) fs::remove(tmp, ec);
-    return !ec;
 }
 
 constexpr std::size_t max_build_log = 64 * 1024;
 
+// ---- PoCL's kernel cache -----------------------------------------------------------------------
+
+/// $TMPDIR/brdf-pocl-UID, created 0700; refused unless it is our own private folder: PoCL loads
+/// compiled kernels from its cache, so a folder another user can write would run their code.
+fs::path private_temporary_folder() {
+    const std::string tmp = env("TMPDIR");
+    const fs::path dir = fs::path(tmp.empty() ? "/tmp" : tmp) / cat("brdf-pocl-", ::geteuid());
+    if (::mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST) return {};
+    struct stat st {};
+    if (::lstat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != ::geteuid() ||
+        (st.st_mode & 077) != 0)
+        return {};
+    return dir;
+}
+
+/// The folder PoCL uses for its cache (pocl_cache.c: POCL_CACHE_DIR, else
+/// $XDG_CACHE_HOME/pocl/kcache, else $HOME/.cache/pocl/kcache).
+fs::path pocl_cache_folder() {
+    if (const std::string dir = env("POCL_CACHE_DIR"); !dir.empty()) return dir;
+    if (const std::string xdg = env("XDG_CACHE_HOME"); !xdg.empty()) return fs::path(xdg) / "pocl" / "kcache";
+    if (const std::string home = env("HOME"); !home.empty()) return fs::path(home) / ".cache" / "pocl" / "kcache";
+    return {};
+}
+
+/// The cause behind "a platform but no device" when we can name it.
+std::string empty_platform_cause() {
+    const fs::path folder = pocl_cache_folder();
+    if (folder.empty()) return "PoCL has no cache folder (set POCL_CACHE_DIR to a writable folder)";
+    if (const std::string problem = cache_folder_problem(folder); !problem.empty())
+        return cat("PoCL could not write its cache folder ", folder.string(), ": ", problem,
+                   " (set POCL_CACHE_DIR to a writable folder)");
+    return {};
+}
+
 } // namespace
+
+std::string cache_folder_problem(const fs::path& folder) {
+    std::error_code ec;
+    fs::create_directories(folder, ec);
+    if (ec) return cat("cannot create it: ", ec.message());
+    if (!fs::is_directory(folder, ec)) return "not a folder";
+    const fs::path probe = folder / cat(".brdf-write-probe.", ::getpid());
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) return cat("cannot write in it: ", std::strerror(errno));
+    ::close(fd);
+    ::unlink(probe.c_str());
+    return {};
+}
+
+fs::path prepare_environment(const fs::path& fallback) {
+    static std::once_flag once;
+    static fs::path chosen;
+    std::call_once(once, [&] {
+        if (const std::string set = env("POCL_CACHE_DIR"); !set.empty()) {
+            chosen = set;
+            return;
+        }
+        std::vector<fs::path> candidates;
+        if (const std::string xdg = env("XDG_CACHE_HOME"); !xdg.empty())
+            candidates.push_back(fs::path(xdg) / "brdf" / "pocl");
+        std::error_code ec;
+        if (const std::string home = env("HOME"); !home.empty() && fs::is_directory(home, ec))
+            candidates.push_back(fs::path(home) / ".cache" / "brdf" / "pocl");
+        if (!fallback.empty()) candidates.push_back(fs::absolute(fallback, ec) / "pocl");
+        if (const fs::path tmp = private_temporary_folder(); !tmp.empty()) candidates.push_back(tmp);
+        for (const fs::path& dir : candidates) {
+            const std::string problem = cache_folder_problem(dir);
+            if (!problem.empty()) {
+                log::debug("PoCL cache: not ", dir.string(), " (", problem, ")");
+                continue;
+            }
+            ::setenv("POCL_CACHE_DIR", dir.c_str(), 0);
+            chosen = dir;
+            log::debug("PoCL cache: POCL_CACHE_DIR=", dir.string());
+            return;
+        }
+        log::debug("PoCL cache: no writable folder found; POCL_CACHE_DIR stays unset");
+    });
+    return chosen;
+}
 
 // ---- errors ------------------------------------------------------------------------------------
 
@@ -368,18 +430,33 @@ std::size_t select_device(std::span<const DeviceCandidate> devices, std::size_t 
                           " has double precision (cl_khr_fp64); found ", list_devices(devices)));
 }
 
-bool available() {
-    static const bool result = [] {
+namespace {
+
+/// available() and unavailable_reason(), found out once: device selection as Context does it.
+const std::string& availability() {
+    static const std::string reason = [] {
         try {
             const Enumerated e = enumerate_devices();
-            return std::any_of(e.candidates.begin(), e.candidates.end(),
-                               [](const DeviceCandidate& d) { return d.fp64; });
-        } catch (const std::exception&) {
-            return false;
+            try {
+                select_device(e.candidates, e.platforms, {});
+            } catch (const DeviceError& error) {
+                if (e.platforms == 0 || !e.devices.empty()) throw;
+                const std::string cause = empty_platform_cause();
+                throw DeviceError(cause.empty() ? std::string(error.what()) : cat(error.what(), ": ", cause));
+            }
+            return std::string();
+        } catch (const std::exception& error) {
+            return std::string(error.what());
         }
     }();
-    return result;
+    return reason;
 }
+
+} // namespace
+
+bool available() { return availability().empty(); }
+
+std::string unavailable_reason() { return availability(); }
 
 ContextOptions options_from_environment() {
     ContextOptions options;
@@ -404,7 +481,17 @@ struct Context::Entry {
 
 Context::Context(ContextOptions options) : m_options(std::move(options)) {
     const Enumerated e = enumerate_devices();
-    const std::size_t index = select_device(e.candidates, e.platforms, m_options.device_filter);
+    const std::size_t index = [&] {
+        try {
+            return select_device(e.candidates, e.platforms, m_options.device_filter);
+        } catch (const DeviceError& error) {
+            // PoCL's CPU device does not initialise when it cannot write its cache: say so.
+            if (e.platforms == 0 || !e.devices.empty()) throw;
+            const std::string cause = empty_platform_cause();
+            if (cause.empty()) throw;
+            throw DeviceError(cat(error.what(), ": ", cause));
+        }
+    }();
     m_device = e.devices[index];
 
     m_info.platform = e.candidates[index].platform;
@@ -530,7 +617,7 @@ std::string Context::source(std::string_view name) const {
             log::debug("OpenCL binary cache skipped: cannot create ", dir.string(), ": ",
                        ec.message());
         else
-            cache_file = dir / (hex(fnv1a64(key)) + ".bin");
+            cache_file = dir / (fnv1a64_hex(key) + ".bin");
     }
 
     cl_int err = CL_SUCCESS;

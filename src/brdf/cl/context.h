@@ -34,6 +34,26 @@ struct DeviceInfo {
 /// throws; the answer is computed once per process.
 bool available();
 
+/// When available() is false: why, as the DeviceError creating a context would say it (e.g. "OpenCL
+/// platform found but it has no device: PoCL could not write its cache folder ..."). Empty otherwise.
+std::string unavailable_reason();
+
+/// Gives PoCL a kernel-cache folder it can write, before the first OpenCL call. PoCL's CPU device
+/// needs one: without it (no writable home, as under tools/systemd/brdfd.service) the device fails
+/// to initialise and the platform looks empty. POCL_CACHE_DIR, when set, is left alone. Otherwise it
+/// is set to the first of these that can be created and written: $XDG_CACHE_HOME/brdf/pocl,
+/// $HOME/.cache/brdf/pocl (only when $HOME exists: a home that is not there is not created),
+/// `fallback`/pocl (brdfd passes a folder under its spool), $TMPDIR/brdf-pocl-UID (else /tmp; mode
+/// 0700 and owned by this user, since PoCL loads code from it). The first call decides; later calls
+/// return the same folder. The tools' mains call it before starting threads (setenv is not
+/// thread-safe); the first OpenCL call makes it otherwise. Returns POCL_CACHE_DIR (empty when no
+/// folder could be used).
+std::filesystem::path prepare_environment(const std::filesystem::path& fallback = {});
+
+/// Why `folder` cannot serve as a cache folder ("cannot create it: Permission denied"), or empty
+/// when it can be created and a file written in it. Exposed for tests.
+std::string cache_folder_problem(const std::filesystem::path& folder);
+
 /// Where a Context finds its device, its sources and its binary cache.
 struct ContextOptions {
     /// Case-sensitive substring of the device or platform name; empty: first device with fp64.

@@ -10,6 +10,7 @@ int exit_status(ErrorKind kind) {
     case ErrorKind::Numerical: return 6;
     case ErrorKind::Io: return 7;
     case ErrorKind::Limit: return 8;
+    case ErrorKind::Internal: return 70;
     }
     return 70;
 }
@@ -22,6 +23,7 @@ const char* to_string(ErrorKind kind) {
     case ErrorKind::Numerical: return "numerical";
     case ErrorKind::Io: return "io";
     case ErrorKind::Limit: return "limit";
+    case ErrorKind::Internal: return "internal";
     }
     return "internal";
 }

@@ -16,6 +16,7 @@ enum class ErrorKind {
     Numerical, ///< a computation failed to converge or produced non-finite values
     Io,        ///< a file could not be read or written
     Limit,     ///< a request exceeds a resource limit (memory, time) without an override
+    Internal,  ///< a bug: a broken invariant, or an exception that is not a brdf::Error
 };
 
 /// Exit statuses of brdftool and brdfd, documented in the README ("Exit status").
@@ -48,6 +49,11 @@ struct IoError : Error {
 };
 struct LimitError : Error {
     explicit LimitError(const std::string& message) : Error(ErrorKind::Limit, message) {}
+};
+/// Thrown where the code finds that it is wrong (an invariant broken), never for bad input: the
+/// tools report it as "internal error" with exit status 70, a daemon job with kind "internal".
+struct InternalError : Error {
+    explicit InternalError(const std::string& message) : Error(ErrorKind::Internal, message) {}
 };
 
 } // namespace brdf

@@ -49,8 +49,26 @@ Level parse_level(std::string_view name) {
     throw InputError(cat("log level: expected error, warn, info or debug (got '", name, "')"));
 }
 
-void write(Level level, std::string_view message) {
+namespace {
+
+std::mutex& write_mutex() {
     static std::mutex mutex;
+    return mutex;
+}
+
+std::function<void()>& status_line_clearer() {
+    static std::function<void()> clear;
+    return clear;
+}
+
+} // namespace
+
+void set_status_line_clearer(std::function<void()> clear) {
+    std::lock_guard lock(write_mutex());
+    status_line_clearer() = std::move(clear);
+}
+
+void write(Level level, std::string_view message) {
     const auto now = std::chrono::system_clock::now();
     const std::time_t t = std::chrono::system_clock::to_time_t(now);
     const auto ms =
@@ -59,7 +77,8 @@ void write(Level level, std::string_view message) {
     gmtime_r(&t, &tm);
     char stamp[32];
     std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%S", &tm);
-    std::lock_guard lock(mutex);
+    std::lock_guard lock(write_mutex());
+    if (status_line_clearer()) status_line_clearer()();
     std::fprintf(stderr, "%s.%03dZ %s %.*s\n", stamp, static_cast<int>(ms), tag(level),
                  static_cast<int>(message.size()), message.data());
     std::fflush(stderr);

@@ -17,18 +17,30 @@
 //    number (1.5) or a string ("2.7+0.01i", brdf::parse_complex_index); a binder's index must be
 //    real (its absorption is absorption_per_mm).
 //  - An optional "description" string is kept in the resolved spec.
-//  - "medium" takes an optional "index" (the medium's real refractive index), required with
-//    "surface": "smooth"; "phase" defaults to isotropic and may be written as a type string
-//    ("rayleigh") where the type has no parameters.
+//  - "medium" takes an optional "index" (the medium's real refractive index), required on the top
+//    layer under a smooth or rough surface; "phase" defaults to isotropic and may be written as a
+//    type string ("rayleigh") where the type has no parameters.
 //  - Catalogue defaults merge key by key at the top level (the material's own keys win); the model
-//    keys (binder, pigments) and (medium) form groups: a material that gives one group does not
-//    inherit the other from the defaults.
+//    keys form groups, (binder, pigments, thickness_um), (medium) and (layers): a material that
+//    gives a key of one group inherits none of the others from the defaults. A "substrate" from
+//    the defaults is inherited only by materials whose last layer is finite.
 //  - Explicit wavelength lists follow spectrum.h (wavelength_list_problems: each in
 //    [explicit_min_nm, explicit_max_nm], strictly increasing); their count is limited by
 //    SpecLimits::max_wavelengths.
 //  - An optional "limits" object raises the resource limits (SpecLimits); it is resolved only when
 //    given, so specs without it keep their hashes.
+//  - Films and stacks (docs/design.md, "Extensions ... (turn 2)"): a material is one layer, written
+//    with the top-level keys binder + pigments (+ thickness_um) or medium (+ its optical_depth), or
+//    a stack "layers": [layer, ...], top first. Either way MaterialSpec::layers holds them. A stack
+//    of one layer resolves to the top-level form, so both spellings hash alike; specs without the
+//    new keys resolve exactly as before. A finite last layer lies on a Lambertian "substrate"
+//    (black unless given; written into the resolved spec only for such films).
+//  - "surface" may also be rough: {"roughness": alpha, "distribution": "ggx" | "beckmann"} or the
+//    named finishes "gloss", "satin", "matte"; "colorspace" is resolved only when not "rec709".
+//  The complete reference of the format is docs/spec.md.
 
+#include <brdf/core/hash.h>
+#include <brdf/material/colour_space.h>
 #include <brdf/material/refractive_index.h>
 #include <brdf/material/spectrum.h>
 #include <brdf/mie/size_distribution.h>
@@ -45,14 +57,19 @@
 
 namespace brdf::material {
 
-enum class Surface { None, Smooth };
+/// The air/top interface: none (a bare medium), smooth (flat Fresnel) or rough (microfacets).
+enum class Surface { None, Smooth, Rough };
+/// The microfacet normal distribution of a rough surface (Walter et al. 2007, eqs. 25 and 33).
+enum class Microfacet { Ggx, Beckmann };
 enum class PhaseType { Isotropic, Rayleigh, HenyeyGreenstein, Legendre };
 /// Which reflection model a material is evaluated with: the exact solve (default) or the dipole
 /// diffusion comparison model of Jensen et al. 2001 (rte/dipole.h), chosen with "model": "dipole".
 enum class Model { Exact, Dipole };
 
-/// "none", "smooth".
+/// "none", "smooth", "rough".
 std::string_view to_string(Surface surface);
+/// "ggx", "beckmann".
+std::string_view to_string(Microfacet distribution);
 /// "isotropic", "rayleigh", "henyey_greenstein", "legendre".
 std::string_view to_string(PhaseType type);
 /// "exact", "dipole".
@@ -96,8 +113,40 @@ struct MediumSpec {
     double g = 0.0;
     /// beta_l, l = 0, 1, ... with beta_0 = 1: only for Legendre (as given, |beta_l| <= 2l + 1).
     std::vector<double> coefficients;
-    /// The medium's real refractive index (for "surface": "smooth"), > 0; absent otherwise.
+    /// The medium's real refractive index, > 0. Needed by the top layer under a smooth or rough
+    /// surface; a lower layer without one is index-matched to the layer above.
     std::optional<double> index;
+    /// Optical depth (extinction times thickness) of a finite layer, > 0; absent: semi-infinite.
+    std::optional<double> optical_depth;
+};
+
+/// The air/top interface. "none" | "smooth" | {"roughness": alpha, "distribution": "ggx" |
+/// "beckmann"} | the named finishes "gloss" (alpha 0.03), "satin" (0.15), "matte" (0.40), GGX.
+struct SurfaceSpec {
+    Surface kind = Surface::Smooth;
+    double roughness = 0.0; ///< alpha of Walter et al. 2007, in [0.001, 1] for Rough; 0 otherwise
+    Microfacet distribution = Microfacet::Ggx;
+    std::string finish; ///< "gloss", "satin", "matte" when named, else ""
+};
+
+/// One layer, top first: a pigmented or clear binder, or an analytic medium.
+struct LayerSpec {
+    std::optional<BinderSpec> binder;
+    std::vector<PigmentSpec> pigments; ///< empty: a clear binder layer (needs a thickness)
+    std::optional<MediumSpec> medium;
+    std::optional<double> thickness_um; ///< binder layers: > 0; absent: semi-infinite
+
+    /// True when the layer has neither thickness_um nor medium->optical_depth.
+    bool semi_infinite() const;
+    /// Sum of the pigments' volume fractions (0 for a clear binder or an analytic medium).
+    double pigment_volume_fraction() const;
+};
+
+/// Lambertian substrate under a finite last layer: "substrate": {"albedo": a | [r, g, b]}, each in
+/// [0, 1] (0 = black, the default).
+struct SubstrateSpec {
+    std::array<double, 3> albedo{0.0, 0.0, 0.0};
+    bool grey = true; ///< albedo was given as one number
 };
 
 struct AccuracySpec {
@@ -111,7 +160,7 @@ struct AccuracySpec {
 /// LimitError naming the limit, unless the spec raises it explicitly with an optional "limits"
 /// object, e.g. "limits": {"max_size_parameter": 1e6}. The object is kept in the resolved spec (and
 /// so in the hash) only when given. Limits that the spec alone decides are checked by parse_specs;
-/// max_legendre_terms needs the optics and is checked by service::solve_material.
+/// max_legendre_terms needs the optics and is checked by model::solve_material.
 struct SpecLimits {
     /// Most wavelengths in the spectrum (an explicit list); the solve is linear in the count.
     std::size_t max_wavelengths = 2000;
@@ -127,17 +176,21 @@ struct SpecLimits {
 struct MaterialSpec {
     std::string name;        ///< [A-Za-z0-9._-]{1,100}; names the output files
     std::string description; ///< optional free text
-    // A particulate material (binder + one or more pigments), or an analytic medium.
-    std::optional<BinderSpec> binder;
-    std::vector<PigmentSpec> pigments;
-    std::optional<MediumSpec> medium;
-    Surface surface = Surface::Smooth;
+    /// Top first, at least one: a particulate layer (binder + pigments), a clear binder film or an
+    /// analytic medium. Only the last may be semi-infinite.
+    std::vector<LayerSpec> layers;
+    std::optional<SubstrateSpec> substrate; ///< present iff the last layer is finite
+    SurfaceSpec surface;
+    /// "colorspace": "rec709" (default) | "acescg" | "rec2020"; in the resolved spec only when not
+    /// the default, so that existing specs keep their hashes.
+    ColorSpace colorspace = ColorSpace::Rec709;
     /// "model": "exact" (default) | "dipole"; in the resolved spec only when not the default, so that
     /// existing specs keep their hashes.
     Model model = Model::Exact;
     SpectralSet spectrum = SpectralSet::visible();
     AccuracySpec accuracy;
-    std::vector<std::string> outputs{"merl", "exr"}; ///< subset of "merl", "exr", in that order
+    /// Subset of "merl", "exr", "fourier", "rgl", "spectral_exr", in that order.
+    std::vector<std::string> outputs{"merl", "exr"};
     SpecLimits limits; ///< the defaults, or those raised by the spec's "limits" object
 
     /// The spec as resolved: defaults filled in, aliases resolved, numbers as doubles, keys in
@@ -150,9 +203,6 @@ struct MaterialSpec {
     std::string source;
     /// Non-fatal findings, each "SOURCE: PATH: text" (also logged with log::warn).
     std::vector<std::string> warnings;
-
-    /// Sum of the pigments' volume fractions (0 for an analytic medium).
-    double pigment_volume_fraction() const;
 };
 
 /// Parses one material or a catalogue {"materials": [...], "defaults": {...}} (defaults merged into
@@ -162,18 +212,26 @@ struct MaterialSpec {
 /// `source` names the document in messages (usually the file name). When every problem is a
 /// resource limit (SpecLimits) the one exception is a LimitError instead, each line naming the limit
 /// and the "limits" key that overrides it.
-std::vector<MaterialSpec> parse_specs(const nlohmann::json& document, std::string_view source);
+///
+/// `overlay` (an object; empty: none) is set on every material before anything is parsed, over the
+/// material's own keys and the catalogue's defaults: `brdftool compute --accuracy` overrides each
+/// spec's accuracy so, e.g. {"accuracy": "draft"}. What is resolved and hashed is the overlaid
+/// material, so an override changes the spec hash (and "up to date" means up to date for it).
+std::vector<MaterialSpec> parse_specs(const nlohmann::json& document, std::string_view source,
+                                      const nlohmann::json& overlay = nlohmann::json::object());
 
 /// Parses JSON text (InputError "SOURCE:LINE:COLUMN: invalid JSON: ..." on syntax errors, which
 /// include NaN and Infinity; duplicate keys in an object are reported with the other problems) and
 /// then parse_specs.
-std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_view source);
+std::vector<MaterialSpec> parse_specs_text(std::string_view text, std::string_view source,
+                                           const nlohmann::json& overlay = nlohmann::json::object());
 
 /// Reads a file (IoError if unreadable, LimitError above max_spec_file_bytes) and parses it with
 /// parse_specs_text, the file's path as given naming it in messages.
-std::vector<MaterialSpec> load_specs(const std::filesystem::path& file);
+std::vector<MaterialSpec> load_specs(const std::filesystem::path& file,
+                                     const nlohmann::json& overlay = nlohmann::json::object());
 
-/// FNV-1a 64 of `text` as 16 lowercase hex digits.
-std::string fnv1a64_hex(std::string_view text);
+/// FNV-1a 64 of `text` as 16 lowercase hex digits (the spec hash; the one implementation is in core).
+using brdf::fnv1a64_hex;
 
 } // namespace brdf::material

@@ -2,6 +2,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/material/colour.h>
 #include <brdf/material/embedded_data.h>
 
 #include <algorithm>
@@ -205,7 +206,34 @@ SpectralSet SpectralSet::integrate(std::vector<double> wl, Kind kind) {
     for (Rgb& w : set.m_rgb)
         for (int c = 0; c < 3; ++c) w[c] *= set.m_balance[c];
     set.m_wavelengths = std::move(wl);
+    set.add_other_spaces();
     return set;
+}
+
+void SpectralSet::add_other_spaces() {
+    for (ColorSpace space : {ColorSpace::AcesCg, ColorSpace::Rec2020}) {
+        std::vector<Rgb>& out = space == ColorSpace::AcesCg ? m_acescg : m_rec2020;
+        out.clear();
+        if (m_kind == Kind::RgbWavelengths) {
+            // Not colorimetric: the Rec.709 identity weights, converted as a Rec.709 colour is.
+            const Matrix3 from_rec709 = inverse(rgb_to_rec709_matrix(space));
+            for (const Rgb& w : m_rgb) out.push_back(apply_matrix(from_rec709, w));
+        } else {
+            for (const Tristimulus& w : m_xyz) out.push_back(xyz_to_rgb(w, space));
+        }
+    }
+}
+
+std::span<const Rgb> SpectralSet::rgb_weights(ColorSpace space) const {
+    switch (space) {
+    case ColorSpace::Rec709:
+        return m_rgb;
+    case ColorSpace::AcesCg:
+        return m_acescg;
+    case ColorSpace::Rec2020:
+        return m_rec2020;
+    }
+    return m_rgb;
 }
 
 SpectralSet SpectralSet::visible() {
@@ -227,6 +255,7 @@ SpectralSet SpectralSet::rgb() {
             for (int c = 0; c < 3; ++c) xyz[i] += inv[i][c] * w[c];
         set.m_xyz.push_back(xyz);
     }
+    set.add_other_spaces();
     return set;
 }
 
@@ -256,6 +285,17 @@ Rgb SpectralSet::to_rgb(std::span<const double> values) const {
     return rgb;
 }
 
+Rgb SpectralSet::to_rgb(std::span<const double> values, ColorSpace space) const {
+    if (values.size() != size())
+        throw InputError(cat("SpectralSet ", name(), ": ", values.size(), " values for ", size(),
+                             " wavelengths"));
+    const std::span<const Rgb> w = rgb_weights(space);
+    Rgb rgb{0.0, 0.0, 0.0};
+    for (std::size_t j = 0; j < size(); ++j)
+        for (int c = 0; c < 3; ++c) rgb[c] += w[j][c] * values[j];
+    return rgb;
+}
+
 Tristimulus SpectralSet::to_xyz(std::span<const double> values) const {
     if (values.size() != size())
         throw InputError(cat("SpectralSet ", name(), ": ", values.size(), " values for ", size(),
@@ -274,6 +314,11 @@ Tristimulus reflectance_to_xyz(std::span<const double> wavelengths_nm,
 Rgb reflectance_to_rgb(std::span<const double> wavelengths_nm,
                        std::span<const double> reflectance) {
     return SpectralSet::integrating(wavelengths_nm).to_rgb(reflectance);
+}
+
+Rgb reflectance_to_rgb(std::span<const double> wavelengths_nm, std::span<const double> reflectance,
+                       ColorSpace space) {
+    return SpectralSet::integrating(wavelengths_nm).to_rgb(reflectance, space);
 }
 
 } // namespace brdf::material

@@ -17,10 +17,17 @@
 // white reflector must stay white. Since the hat functions sum to 1, every channel's weights sum to
 // 1 for every set.
 //
+// Other colour spaces (ColorSpace, colour.h): the same XYZ weights through that space's matrix
+// (adaptation included), white-preserving too: R = 1 gives (1, 1, 1) in the space's own white.
+// The Rec.709 weights above are computed exactly as before (bit for bit).
+//
 // "rgb": three wavelengths, the dominant wavelengths of the Rec.709 primaries about the D65 white
 // on the CIE 1931 locus (611.46, 549.09, 464.26 nm: tests/reference/material/spectral_weights.py),
 // rounded to 611, 549 and 464 nm, with identity weights: r = R(611), g = R(549), b = R(464). Fast
-// and white-preserving, but not colorimetric (a narrow-band sample of each channel).
+// and white-preserving, but not colorimetric (a narrow-band sample of each channel). In another
+// space its weights are the Rec.709 identity converted by that space's matrix from Rec.709.
+
+#include <brdf/material/colour_space.h>
 
 #include <array>
 #include <cstddef>
@@ -32,7 +39,7 @@
 namespace brdf::material {
 
 using Tristimulus = std::array<double, 3>; ///< CIE 1931 X, Y, Z
-using Rgb = std::array<double, 3>;         ///< linear Rec.709 r, g, b (D65 white = 1, 1, 1)
+using Rgb = std::array<double, 3>; ///< linear r, g, b: Rec.709 (D65 white = 1, 1, 1) unless a ColorSpace says otherwise
 
 struct Chromaticity {
     double x = 0.0;
@@ -112,8 +119,11 @@ class SpectralSet {
 
     /// The wavelengths to solve, nm, strictly increasing.
     std::span<const double> wavelengths_nm() const { return m_wavelengths; }
-    /// w_c(lambda_j), one Rgb per wavelength; every channel sums to 1.
+    /// w_c(lambda_j) in linear Rec.709, one Rgb per wavelength; every channel sums to 1.
     std::span<const Rgb> rgb_weights() const { return m_rgb; }
+    /// The same in `space` (colour.h): every channel sums to 1 (to rounding) there too.
+    /// rgb_weights(ColorSpace::Rec709) is rgb_weights().
+    std::span<const Rgb> rgb_weights(ColorSpace space) const;
     /// The CIE XYZ weights (Y of white = 1) before the RGB conversion. For the rgb set, which has
     /// no colorimetric meaning, M^-1 applied to the identity weights.
     std::span<const Tristimulus> xyz_weights() const { return m_xyz; }
@@ -122,18 +132,22 @@ class SpectralSet {
 
     /// sum_j w(lambda_j) values[j]; values.size() must equal size() (InputError otherwise).
     Rgb to_rgb(std::span<const double> values) const;
+    /// sum_j rgb_weights(space)[j] values[j].
+    Rgb to_rgb(std::span<const double> values, ColorSpace space) const;
     /// sum_j xyz_weights[j] values[j].
     Tristimulus to_xyz(std::span<const double> values) const;
 
   private:
     SpectralSet() = default;
     static SpectralSet integrate(std::vector<double> wavelengths, Kind kind);
+    void add_other_spaces(); // m_acescg, m_rec2020 from m_xyz, or from m_rgb for the rgb set
 
     Kind m_kind = Kind::Visible;
     std::vector<double> m_wavelengths;
     std::vector<Rgb> m_rgb;
     std::vector<Tristimulus> m_xyz;
     Rgb m_balance{1.0, 1.0, 1.0};
+    std::vector<Rgb> m_acescg, m_rec2020;
 };
 
 /// XYZ (Y of white = 1, D65) of a reflectance given at strictly increasing wavelengths, by the same
@@ -142,5 +156,8 @@ Tristimulus reflectance_to_xyz(std::span<const double> wavelengths_nm,
                                std::span<const double> reflectance);
 /// Linear Rec.709 of the same, white-balanced like SpectralSet (R = 1 gives 1, 1, 1).
 Rgb reflectance_to_rgb(std::span<const double> wavelengths_nm, std::span<const double> reflectance);
+/// The same in `space`.
+Rgb reflectance_to_rgb(std::span<const double> wavelengths_nm, std::span<const double> reflectance,
+                       ColorSpace space);
 
 } // namespace brdf::material

@@ -107,6 +107,47 @@ bool use_avx512() {
 }
 #endif
 
+// The Legendre projection, eight nodes at a time: P_l(mu_j) of the eight in one vector follows the
+// three-term recurrence (l+1) P_{l+1} = (2l+1) mu P_l - l P_{l-1} in registers, and each order adds
+// P_l(mu_j) w_j into its own eight-wide partial sum (sums[8 l .. 8 l + 7]), reduced once at the end.
+// The plain form, one pass over all nodes per order into a single running sum, waits on that sum's
+// latency. Orders come in pairs so that the parity (which weight, even or odd) is fixed in the code.
+// Element-wise arithmetic in a fixed order: the same result on every target.
+template <typename V>
+[[gnu::always_inline]] inline void projection_kernel(const double* __restrict rec, int orders,
+                                                     const double* mu_in, const double* even_in,
+                                                     const double* odd_in, double* __restrict sums) {
+    V mu, even, odd, p_prev, p;
+    for (std::size_t i = 0; i < 8; ++i) {
+        mu[i] = mu_in[i], even[i] = even_in[i], odd[i] = odd_in[i];
+        p_prev[i] = 1.0; // P_0
+        p[i] = mu_in[i]; // P_1
+    }
+    const auto add = [&](int l, const V& w) {
+        V s;
+        __builtin_memcpy(&s, sums + 8 * l, sizeof(V));
+        s += p * w;
+        __builtin_memcpy(sums + 8 * l, &s, sizeof(V));
+        const V next = rec[2 * l] * mu * p - rec[2 * l + 1] * p_prev;
+        p_prev = p;
+        p = next;
+    };
+    int l = 1;
+    for (; l + 1 < orders; l += 2) {
+        add(l, odd);
+        add(l + 1, even);
+    }
+    if (l < orders) add(l, odd);
+}
+
+#ifdef BRDF_X86_DISPATCH
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+void projection_block(const double* rec, int orders, const double* mu, const double* even,
+                      const double* odd, double* sums) {
+    projection_kernel<Vec8>(rec, orders, mu, even, odd, sums);
+}
+
 } // namespace
 
 PhaseFunctionAccumulator::PhaseFunctionAccumulator(int max_terms) : m_max_terms(max_terms) {
@@ -195,6 +236,36 @@ double PhaseFunctionAccumulator::integral() const {
     return sum;
 }
 
+std::vector<double> PhaseFunctionAccumulator::project(std::size_t half, int l_last, double total) const {
+    const std::size_t orders = static_cast<std::size_t>(l_last) + 1;
+    thread_local std::vector<double> recurrence, sums;
+    recurrence.assign(2 * (orders + 1), 0.0);
+    for (std::size_t l = 1; l < orders; ++l) {
+        recurrence[2 * l] = (2.0 * l + 1.0) / (l + 1.0);
+        recurrence[2 * l + 1] = static_cast<double>(l) / (l + 1.0);
+    }
+    sums.assign(8 * (orders + 1), 0.0);
+    double mu[8], even[8], odd[8];
+    for (std::size_t j0 = 0; j0 < half; j0 += 8) {
+        for (std::size_t i = 0; i < 8; ++i) {
+            const std::size_t j = j0 + i;
+            const bool in = j < half;
+            mu[i] = in ? m_mu[j] : 0.0;
+            even[i] = in ? m_weight[j] * (m_plus[j] + m_minus[j]) : 0.0;
+            odd[i] = in ? m_weight[j] * (m_plus[j] - m_minus[j]) : 0.0;
+        }
+        projection_block(recurrence.data(), static_cast<int>(orders), mu, even, odd, sums.data());
+    }
+    std::vector<double> beta{1.0};
+    beta.reserve(orders);
+    for (std::size_t l = 1; l < orders; ++l) {
+        double sum = 0.0;
+        for (std::size_t i = 0; i < 8; ++i) sum += sums[8 * l + i];
+        beta.push_back((2.0 * l + 1.0) * sum / total);
+    }
+    return beta;
+}
+
 std::vector<double> PhaseFunctionAccumulator::legendre(const LegendreOptions& options) const {
     if (!(options.tolerance >= 0.0))
         throw InputError(cat("Legendre moments: tolerance ", options.tolerance, " must be >= 0"));
@@ -207,30 +278,10 @@ std::vector<double> PhaseFunctionAccumulator::legendre(const LegendreOptions& op
                                  total, " (nothing scattered?)"));
     // beta_l = (2l+1)/2 int p P_l dmu with p = 2 I / int I, and P_l(-mu) = (-1)^l P_l(mu):
     // beta_l = (2l+1) / total * sum_j P_l(mu_j) w_j (I(+mu_j) + (-1)^l I(-mu_j)).
-    std::vector<double> even(half), odd(half), p_prev(half, 1.0), p(m_mu);
-    for (std::size_t j = 0; j < half; ++j) {
-        even[j] = m_weight[j] * (m_plus[j] + m_minus[j]);
-        odd[j] = m_weight[j] * (m_plus[j] - m_minus[j]);
-    }
     const int l_max = 2 * m_max_terms; // the intensity is a polynomial of this degree
     int l_last = l_max;
     if (options.max_terms > 0) l_last = std::min(l_last, options.max_terms - 1);
-    std::vector<double> beta;
-    beta.reserve(l_last + 1);
-    beta.push_back(1.0);
-    for (int l = 1; l <= l_last; ++l) {
-        // p holds P_l, p_prev P_{l-1} at the nodes.
-        const double* w = (l % 2) ? odd.data() : even.data();
-        double sum = 0.0;
-        for (std::size_t j = 0; j < half; ++j) sum += p[j] * w[j];
-        beta.push_back((2.0 * l + 1.0) * sum / total);
-        const double up = (2.0 * l + 1.0) / (l + 1.0), down = l / (l + 1.0);
-        for (std::size_t j = 0; j < half; ++j) {
-            const double next = up * m_mu[j] * p[j] - down * p_prev[j];
-            p_prev[j] = p[j];
-            p[j] = next;
-        }
-    }
+    std::vector<double> beta = project(half, l_last, total);
     // Cut after the last moment above the tolerance.
     std::size_t keep = beta.size();
     while (keep > 1 && !(std::abs(beta[keep - 1]) > options.tolerance)) --keep;

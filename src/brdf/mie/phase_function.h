@@ -38,6 +38,8 @@ public:
     /// Like add(), into caller-owned partial sums of I(+mu_j) and I(-mu_j) (each pairs() long), for
     /// integrations that decide later which evaluations to keep. Thread-safe.
     void accumulate(const Coefficients& c, double weight, double* plus, double* minus) const;
+    /// The Gauss weights of the positive nodes (those of -mu_j are the same), pairs() long.
+    const std::vector<double>& weights() const { return m_weight; }
     /// Adds partial sums made by accumulate().
     void add_sums(const std::vector<double>& plus, const std::vector<double>& minus);
 
@@ -53,6 +55,9 @@ public:
     void clear();
 
 private:
+    /// beta_0 .. beta_{l_last} of the accumulated intensity (integral `total`), untruncated.
+    std::vector<double> project(std::size_t half, int l_last, double total) const;
+
     int m_max_terms;
     std::shared_ptr<const Quadrature> m_rule;
     std::vector<double> m_mu;     ///< the positive nodes mu_j, j = 0 .. max_terms

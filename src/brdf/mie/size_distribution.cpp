@@ -13,9 +13,13 @@ namespace {
 constexpr double pi = std::numbers::pi;
 constexpr double min_v_eff = 1e-6; // narrower distributions: use monodisperse
 
-void check_positive(const char* dist, const char* name, double value) {
-    if (!std::isfinite(value) || !(value > 0.0))
-        throw InputError(cat(dist, ": ", name, " must be a finite number > 0 (got ", value, ")"));
+// The checks of parameter_problems as the constructors use them: one InputError listing them all.
+void check(DistributionKind kind, double p1, double p2) {
+    const std::vector<ParameterProblem> problems = parameter_problems(kind, p1, p2);
+    if (problems.empty()) return;
+    std::string text;
+    for (const ParameterProblem& p : problems) text += (text.empty() ? "" : "; ") + p.text();
+    throw InputError(cat(to_string(kind), ": ", text));
 }
 
 // Bisection for an increasing function with f(lo) < 0 < f(hi): 200 halvings reach the resolution of
@@ -86,6 +90,66 @@ const char* to_string(DistributionKind kind) {
     return "unknown";
 }
 
+const char* parameter1_key(DistributionKind kind) {
+    switch (kind) {
+    case DistributionKind::Monodisperse: return "radius_um";
+    case DistributionKind::PowerLaw:
+    case DistributionKind::Gamma: return "r_eff_um";
+    case DistributionKind::Lognormal: return "r_g_um";
+    }
+    return "";
+}
+
+const char* parameter2_key(DistributionKind kind) {
+    switch (kind) {
+    case DistributionKind::Monodisperse: return "";
+    case DistributionKind::PowerLaw:
+    case DistributionKind::Gamma: return "v_eff";
+    case DistributionKind::Lognormal: return "sigma_g";
+    }
+    return "";
+}
+
+std::vector<ParameterProblem> parameter_problems(DistributionKind kind, double p1, double p2) {
+    std::vector<ParameterProblem> out;
+    const auto fail = [&](const char* key, std::string fault, double got) {
+        out.push_back({key, cat(fault, " (got ", got, ")")});
+    };
+    // The radius (radius_um, r_eff_um, r_g_um): a length, so finite and > 0.
+    if (!std::isfinite(p1))
+        fail(parameter1_key(kind), "must be a finite number > 0", p1);
+    else if (!(p1 > 0.0))
+        fail(parameter1_key(kind), "must be > 0", p1);
+    const char* key2 = parameter2_key(kind);
+    switch (kind) {
+    case DistributionKind::Monodisperse: break;
+    case DistributionKind::PowerLaw:
+        // Beyond v_eff = 2 the smallest radius falls below 1.5% of r_eff (header).
+        if (!(std::isfinite(p2) && p2 >= min_v_eff && p2 <= 2.0))
+            fail(key2, cat("must be in [", min_v_eff, ", 2]"), p2);
+        break;
+    case DistributionKind::Gamma:
+        if (!(std::isfinite(p2) && p2 >= min_v_eff && p2 < 0.5))
+            fail(key2,
+                 cat("must be in [", min_v_eff,
+                     ", 0.5) for the gamma distribution (it is not normalisable at 0.5)"),
+                 p2);
+        break;
+    case DistributionKind::Lognormal:
+        if (!(std::isfinite(p2) && p2 > 1.0 && p2 <= 3.0)) {
+            fail(key2, "must be in (1, 3]", p2);
+        } else if (const double s = std::log(p2); std::expm1(s * s) < min_v_eff) {
+            // v_eff = exp(ln^2 sigma_g) - 1 (H&T): too narrow to integrate as a distribution.
+            fail(key2,
+                 cat("is narrower than v_eff = ", min_v_eff,
+                     " (sigma_g >= 1.001); use monodisperse"),
+                 p2);
+        }
+        break;
+    }
+    return out;
+}
+
 double SizeDistribution::number_density(double r) const {
     if (!(r > 0.0)) return 0.0;
     switch (m_kind) {
@@ -114,7 +178,7 @@ std::string SizeDistribution::describe() const {
 }
 
 SizeDistribution monodisperse(double radius_um) {
-    check_positive("monodisperse", "radius_um", radius_um);
+    check(DistributionKind::Monodisperse, radius_um, 0.0);
     SizeDistribution d;
     d.m_kind = DistributionKind::Monodisperse;
     d.m_p1 = radius_um;
@@ -127,9 +191,7 @@ SizeDistribution monodisperse(double radius_um) {
 }
 
 SizeDistribution power_law(double r_eff_um, double v_eff) {
-    check_positive("power_law", "r_eff_um", r_eff_um);
-    if (!std::isfinite(v_eff) || !(v_eff >= min_v_eff && v_eff <= 2.0))
-        throw InputError(cat("power_law: v_eff must be in [", min_v_eff, ", 2] (got ", v_eff, ")"));
+    check(DistributionKind::PowerLaw, r_eff_um, v_eff);
     // r1 + r2 = S and (r2 - r1) / ln(r2 / r1) = r_eff. As r1 goes from 0 to S/2 the left side grows
     // monotonically from 0 to S/2 = r_eff (1 + v_eff) > r_eff, so the root is bracketed. For
     // v_eff <= 2 the root lies above 1e-12 S (there the left side is S / ln(1e12) < r_eff).
@@ -157,11 +219,7 @@ SizeDistribution power_law(double r_eff_um, double v_eff) {
 }
 
 SizeDistribution gamma(double r_eff_um, double v_eff) {
-    check_positive("gamma", "r_eff_um", r_eff_um);
-    if (!std::isfinite(v_eff) || !(v_eff >= min_v_eff && v_eff < 0.5))
-        throw InputError(cat("gamma: v_eff must be in [", min_v_eff,
-                             ", 0.5) (the distribution is not normalisable at 0.5; got ", v_eff,
-                             ")"));
+    check(DistributionKind::Gamma, r_eff_um, v_eff);
     const double b = v_eff;
     const double alpha = (1.0 - 3.0 * b) / b; // > -1
     const double scale = r_eff_um * b;        // a b
@@ -192,13 +250,8 @@ SizeDistribution gamma(double r_eff_um, double v_eff) {
 }
 
 SizeDistribution lognormal(double r_g_um, double sigma_g) {
-    check_positive("lognormal", "r_g_um", r_g_um);
-    if (!std::isfinite(sigma_g) || !(sigma_g > 1.0 && sigma_g <= 3.0))
-        throw InputError(cat("lognormal: sigma_g must be in (1, 3] (got ", sigma_g, ")"));
+    check(DistributionKind::Lognormal, r_g_um, sigma_g);
     const double s = std::log(sigma_g);
-    if (std::expm1(s * s) < min_v_eff)
-        throw InputError(cat("lognormal: sigma_g = ", sigma_g, " is narrower than v_eff = ",
-                             min_v_eff, " (sigma_g >= 1.001); use monodisperse"));
     SizeDistribution d;
     d.m_kind = DistributionKind::Lognormal;
     d.m_p1 = r_g_um;

@@ -17,6 +17,7 @@
 // 1e-8 relative.
 
 #include <string>
+#include <vector>
 
 namespace brdf::mie {
 
@@ -73,6 +74,27 @@ private:
     // normalisation; log-normal: ln r_g, ln sigma_g, normalisation.
     double m_c0 = 0.0, m_c1 = 0.0, m_c2 = 0.0;
 };
+
+/// The keys of a distribution's two parameters as a spec spells them (docs/spec.md): "radius_um" and
+/// "" (monodisperse has one), "r_eff_um" and "v_eff" (power law, gamma), "r_g_um" and "sigma_g".
+const char* parameter1_key(DistributionKind kind);
+const char* parameter2_key(DistributionKind kind);
+
+/// One fault of a parameter set, e.g. {"v_eff", "must be in [1e-06, 0.5) for the gamma
+/// distribution (it is not normalisable at 0.5) (got 0.6)"}.
+struct ParameterProblem {
+    std::string key;   ///< parameter1_key or parameter2_key of the distribution
+    std::string fault; ///< what is wrong, ending "(got VALUE)"
+    /// "KEY: FAULT", e.g. "v_eff: must be in [1e-06, 0.5) ... (got 0.6)".
+    std::string text() const { return key + ": " + fault; }
+};
+
+/// Every problem of the parameters (parameter1(), parameter2() of the distribution they would
+/// make; parameter2 is ignored for monodisperse), in parameter order; empty when the constructor
+/// below accepts them. The constructors throw InputError("KIND: " + the problems' text(), joined
+/// by "; "), so a spec parser and a direct caller see the same words.
+std::vector<ParameterProblem> parameter_problems(DistributionKind kind, double parameter1,
+                                                 double parameter2 = 0.0);
 
 /// All particles of one radius, um (> 0).
 SizeDistribution monodisperse(double radius_um);

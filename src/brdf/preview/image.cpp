@@ -1,15 +1,14 @@
 #include <brdf/preview/image.h>
 
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
-#include <unistd.h>
 
 namespace brdf::preview {
 
@@ -55,36 +54,14 @@ ImageFormat output_format(const std::filesystem::path& path) {
                          "' (expected .png or .exr)"));
 }
 
-namespace {
-
-/// Removes the temporary file unless the write completed.
-struct TempFile {
-    std::filesystem::path path;
-    bool keep = false;
-    ~TempFile() {
-        if (!keep) {
-            std::error_code ec;
-            std::filesystem::remove(path, ec);
-        }
-    }
-};
-
-std::filesystem::path temp_name(const std::filesystem::path& path) {
-    static std::atomic<unsigned> counter{0};
-    // Same folder (rename stays atomic), same extension (OpenImageIO picks the format by it).
-    return path.parent_path() / cat(".", path.stem().string(), ".tmp-", ::getpid(), "-", counter++,
-                                    path.extension().string());
-}
-
-} // namespace
-
 void write_image(const Image& image, const std::filesystem::path& path, const ToneOptions& tone) {
     const ImageFormat format = output_format(path);
     if (image.width <= 0 || image.height <= 0 ||
         image.pixels.size() != static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height) * 3)
         throw InputError(cat(path.string(), ": image has no pixels or a wrong pixel count"));
 
-    TempFile temp{temp_name(path)};
+    // Same folder (the rename stays atomic), same extension (OpenImageIO picks the format by it).
+    AtomicFile temp(path, path.extension().string());
     auto out = OIIO::ImageOutput::create(path.string());
     if (!out) throw IoError(cat(path.string(), ": OpenImageIO cannot write this format: ", OIIO::geterror()));
     OIIO::ImageSpec spec(image.width, image.height, 3,
@@ -94,21 +71,18 @@ void write_image(const Image& image, const std::filesystem::path& path, const To
     if (format == ImageFormat::Exr) {
         spec.attribute("compression", "zip");
         spec.attribute("oiio:ColorSpace", "Linear");
-        ok = out->open(temp.path.string(), spec) && out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data());
+        ok = out->open(temp.temporary().string(), spec) && out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data());
     } else {
         spec.attribute("oiio:ColorSpace", "sRGB");
         std::vector<std::uint8_t> bytes(image.pixels.size());
         for (std::size_t k = 0; k < bytes.size(); ++k)
             bytes[k] = static_cast<std::uint8_t>(std::lround(255.0 * srgb_encode(tone_map(image.pixels[k], tone))));
-        ok = out->open(temp.path.string(), spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
+        ok = out->open(temp.temporary().string(), spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
     }
     ok = out->close() && ok;
     if (!ok) throw IoError(cat(path.string(), ": cannot write: ", out->geterror()));
     out.reset();
-    std::error_code ec;
-    std::filesystem::rename(temp.path, path, ec);
-    if (ec) throw IoError(cat(path.string(), ": cannot rename the finished image into place: ", ec.message()));
-    temp.keep = true;
+    temp.commit();
 }
 
 } // namespace brdf::preview

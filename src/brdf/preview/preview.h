@@ -4,18 +4,18 @@
 // reflection when it has a smooth interface, written as a tone-mapped PNG.
 
 #include <brdf/preview/render.h>
-#include <brdf/service/model.h>
+#include <brdf/model/model.h>
 
 #include <filesystem>
 
 namespace brdf::preview {
 
 /// render_sphere of the material's BRDF (and mirror, with surface "smooth") with `options`.
-Image render_material(const service::SolvedMaterial& material, RenderOptions options = {});
+Image render_material(const model::SolvedMaterial& material, RenderOptions options = {});
 
 /// Renders `material` at 256 x 256 pixels (light from the upper left, a dim sky) and writes it to
 /// `png` atomically (write_image). InputError if `png` does not end in .png or .exr, IoError if it
 /// cannot be written.
-void write_preview(const service::SolvedMaterial& material, const std::filesystem::path& png);
+void write_preview(const model::SolvedMaterial& material, const std::filesystem::path& png);
 
 } // namespace brdf::preview

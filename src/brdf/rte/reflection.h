@@ -1,17 +1,23 @@
 #pragma once
-// The reflection of a semi-infinite medium, optionally under a smooth interface: set up the per-order
-// problems (delta-M, streams, order truncation), solve them in one batch (CPU reference or OpenCL),
-// then evaluate the BRDF at any angles through the equation itself (Nystrom interpolation, the
-// "source-function integration" of DISORT) with the exact single scattering added back (TMS).
+// The reflection of a layer stack (stack.h) at one wavelength: per Fourier order, the semi-infinite
+// last layer by Ambartsumian's equation (order_solver.h, solved in one batch on the CPU or OpenCL),
+// every finite layer by the slab solution (slab.h), and everything combined by the adding equations
+// (adding.h) under the top interface. Off the streams the BRDF is exact: the half-space by Nystrom
+// interpolation through Ambartsumian's equation (the "source-function integration" of DISORT), the
+// slabs by the same integration of their eigen solution. The single scattering of the full phase
+// function is added back per direction (TMS, Nakajima and Tanaka 1988).
 //
 // Angles: mu = cosines of the zenith angles in air; phi is the graphics azimuth of docs/design.md
 // (phi = 0 on the light's side, pi on the mirror side). The radiative-transfer azimuth of the equation
 // is phi + pi, hence the (-1)^m of every Fourier sum here. BRDF = R / pi.
 
 #include <brdf/core/linalg.h>
+#include <brdf/rte/adding.h>
 #include <brdf/rte/interface.h>
 #include <brdf/rte/order_solver.h>
 #include <brdf/rte/phase.h>
+#include <brdf/rte/slab.h>
+#include <brdf/rte/stack.h>
 #include <brdf/rte/streams.h>
 
 #include <span>
@@ -26,68 +32,90 @@ struct ReflectionSettings {
     SolveControl control;
 };
 
-/// Everything needed before the solve.
-struct ReflectionSetup {
-    Medium medium;       ///< as given (full phase function)
-    DeltaM truncated;    ///< delta-M scaled medium the orders are solved for
-    Interface interface;
-    Streams streams;
-    int orders = 1;      ///< m = 0 .. orders - 1
-};
-
-ReflectionSetup setup_reflection(const Medium& medium, const Interface& interface,
-                                 const ReflectionSettings& settings);
-std::vector<OrderProblem> order_problems(const ReflectionSetup& setup);
+/// A semi-infinite medium under a smooth interface of index interface.n (1: none), set up.
+StackSetup setup_reflection(const Medium& medium, const Interface& interface, const ReflectionSettings& settings);
+/// The stack set up with the solve settings' streams and order tolerance.
+StackSetup setup_reflection(const Stack& stack, const ReflectionSettings& settings);
+/// Ambartsumian problems of the semi-infinite last layer (half_space_problems).
+std::vector<OrderProblem> order_problems(const StackSetup& setup);
 
 /// Solves a batch of order problems (possibly from many media). The OpenCL backend lives in
 /// rte/cl_solver.h; this is the CPU reference, one problem after another on `threads` threads.
 std::vector<OrderSolution> solve_orders_cpu(std::span<const OrderProblem> problems, Method method,
                                             const SolveControl& control, int threads = 1);
 
-/// R^m of the multiply scattered light (single scattering of the truncated phase function removed)
-/// at internal cosines u[a] (rows, outgoing) x u[b] (columns, incident), including the interface's
-/// internal reflections; one E x E matrix per order.
+/// Per Fourier order, R^m of the light that is not single scattered on its direct path (that part is
+/// added exactly per direction by Reflection::single_scattering), between cosines in air: row a =
+/// outgoing, column b = incident; interface factors included: BRDF = sum_m (2 - delta_m0) (-1)^m
+/// orders[m](a, b) cos(m phi) / pi + single scattering + the rough surface's lobe.
 struct OrderGrid {
-    std::vector<double> u;
+    std::vector<double> mu; ///< the cosines in air (clamped away from 0)
     std::vector<Matrix> orders;
 };
 
 class Reflection {
 public:
-    Reflection(ReflectionSetup setup, std::vector<OrderSolution> solutions);
+    /// `half_space`: the solutions of half_space_problems(setup), one per order (none for a film).
+    /// The finite layers are solved here.
+    Reflection(StackSetup setup, std::vector<OrderSolution> half_space);
 
-    const ReflectionSetup& setup() const { return m_setup; }
-    const std::vector<OrderSolution>& solutions() const { return m_solutions; }
+    const StackSetup& setup() const { return m_setup; }
+    /// The Ambartsumian solutions of the semi-infinite layer (empty for a film).
+    const std::vector<OrderSolution>& solutions() const { return m_half; }
+    int orders() const { return m_setup.orders; }
 
-    /// BRDF (1/sr) of the diffuse part; the mirror reflection of a smooth interface is not included.
+    /// BRDF (1/sr) without the specular (delta) reflection of smooth interfaces.
     double brdf(double mu_i, double mu_o, double phi) const;
-    /// Directional-hemispherical reflectance of the diffuse part (from the delta-M solution, which
-    /// conserves energy exactly on the streams).
+    /// Directional-hemispherical reflectance of that BRDF (from the streams' own rule, for which the
+    /// discrete equations conserve energy exactly).
     double albedo(double mu_i) const;
-    /// Reflectance of the mirror (specular delta) at the interface; 0 without one.
+    /// Specular reflectance: the top interface's mirror plus every specular path through the stack
+    /// (clear layers over index changes); 0 without a smooth top interface.
     double mirror(double mu_i) const;
 
-    /// The multiply scattered part on a set of cosines in air, for tables: row a = outgoing.
+    /// The multiply scattered part on a set of cosines in air, for tables and evaluation.
     OrderGrid order_grid(std::span<const double> mu_air) const;
-    /// Single scattering with the full phase function at internal cosines (no interface factors),
-    /// with the TMS albedo below.
-    double single_scattering(double u_o, double u_i, double phi) const;
-    /// omega / (1 - f omega): the albedo of the exact single-scattering term under delta-M (TMS).
-    double single_scattering_albedo() const;
-    /// T(mu_o) T(mu_i) / n^2 with 1/pi: turns internal R into the external BRDF.
-    double transmission_factor(double mu_o, double mu_i) const;
-    /// Internal cosine for a cosine in air (identity without an interface).
-    double inside(double mu_air) const;
+    /// The exact single scattering of the full phase functions on the direct paths of every layer,
+    /// as R (BRDF = R / pi), with interface and attenuation factors.
+    double single_scattering(double mu_o, double mu_i, double phi) const;
+
+    /// What a per-direction single-scattering evaluation needs of layer k (table fills tabulate it).
+    struct ScatteringLayer {
+        const std::vector<double>* beta = nullptr; ///< full phase function
+        double albedo = 0.0;                       ///< omega / (1 - f omega) (TMS)
+        double tau = 0.0;                          ///< delta-M scaled thickness (infinite: half-space)
+        double index = 1.0;
+    };
+    ScatteringLayer scattering_layer(int k) const;
+    /// A_k(mu) / n_k: the factor of layer k's single scattering for an air cosine, one per direction
+    /// (Fresnel transmissions of every interface above it and the attenuation by the layers above).
+    double path_factor(int k, double mu_air) const;
+    /// Cosine in layer k of a ray with cosine mu_air in air.
+    double inside(int k, double mu_air) const;
 
 private:
-    /// R^m(u_e, mu_k) for internal cosines u_e (rows) and the streams (columns), by Nystrom.
-    Matrix half_node(int m, std::span<const double> u) const;
+    Reflector half_space_reflector(int m, std::span<const double> u) const;
+    Reflector substrate_reflector(int m, int n, int e) const;
+    LayerOperators layer_operators(int k, int m, std::span<const double> u, bool with_t_ee) const;
+    SmoothInterface interface_below(int k, std::span<const double> u) const;
+    SmoothInterface top_interface(std::span<const double> mu_air) const;
+    /// What layer 1 sees below its top at cosines u (of layer 1) for order m.
+    Reflector below_top(int m, std::span<const double> mu_air) const;
+    /// R^m between air cosines, specular part separate.
+    Reflector external(int m, std::span<const double> mu_air) const;
+    /// The truncated single scattering on the direct paths that order_grid removes.
+    double truncated_single_scattering(int m, int k, double mu_o_air, double mu_i_air) const;
 
-    ReflectionSetup m_setup;
-    std::vector<OrderSolution> m_solutions;
-    std::vector<Matrix> m_gain;        ///< per order: I - (w/2) P+ W - w M X W P- W (Nystrom kernel)
-    std::vector<Matrix> m_minus_w;     ///< per order: P- W, for the quadratic term of the evaluation
-    std::vector<LuFactor> m_bounce;    ///< per order: I - X Q, Q = diag(2 w mu F) (interface only)
+    StackSetup m_setup;
+    std::vector<OrderSolution> m_half;
+    std::vector<std::vector<SlabOrder>> m_slabs; ///< per finite layer, per order
+    /// Effective reflectances at the streams (interface_reflectance) of the top interface (per
+    /// stream of layer 0) and of the interface under layer k (above: per stream of layer k; below:
+    /// per stream of layer k + 1); 1 where the light is totally reflected.
+    std::vector<double> m_top_f;
+    std::vector<std::vector<double>> m_f_above, m_f_below;
+    std::vector<Matrix> m_gain;    ///< half-space, per order: I - (w/2) P+ W - w M X W P- W (Nystrom kernel)
+    std::vector<Matrix> m_minus_w; ///< half-space, per order: P- W
 };
 
 } // namespace brdf::rte

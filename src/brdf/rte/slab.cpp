@@ -12,6 +12,12 @@ namespace {
 // (1 - exp(-x)) / x, 1 at x = 0, for either sign of x.
 double one_minus_exp_over(double x) { return x == 0.0 ? 1.0 : -std::expm1(-x) / x; }
 
+// (exp(-a tau) - exp(-b tau)) / (b - a) for a, b >= 0, tau at a = b, without overflow for any tau:
+// the smaller rate's exponential times (1 - exp(-|b - a| tau)) / |b - a|.
+double exp_difference(double a, double b, double tau) {
+    return std::exp(-std::min(a, b) * tau) * tau * one_minus_exp_over(std::abs(b - a) * tau);
+}
+
 // (1 - exp(-k tau)) / k, tau at k = 0.
 double phi_of(double k, double tau) { return tau * one_minus_exp_over(k * tau); }
 
@@ -140,7 +146,7 @@ SlabOrder::RowCoefficients SlabOrder::row_coefficients(std::span<const double> b
             const double k = m_k[j], ej = m_e[j];
             const double alpha = -std::expm1(-(k + 1.0 / ue) * m_tau) / (1.0 + k * ue);
             // beta = (e^(-k tau) - e^(-tau/u)) / (1 - k u), removable at k u = 1.
-            const double beta_j = ej * (m_tau / ue) * one_minus_exp_over((1.0 / ue - k) * m_tau);
+            const double beta_j = exp_difference(k, 1.0 / ue, m_tau) / ue;
             // (alpha - beta) / k, exactly [phi (1 + E) - u (1 + e) (1 - E)] / (1 - k^2 u^2) away from k u = 1.
             const double diff_over_k =
                 std::abs(1.0 - k * ue) > 0.5
@@ -253,8 +259,7 @@ SlabOrder::Beams SlabOrder::beams(std::span<const double> beta, std::span<const 
             const double ub = u0[b];
             // int_0^tau e^(-t/u0) e^(-t/u) dt/u and int_0^tau e^(-t/u0) e^(-(tau - t)/u) dt/u.
             const double to_top = ub / (ua + ub) * -std::expm1(-m_tau * (1.0 / ua + 1.0 / ub));
-            const double to_bottom =
-                std::exp(-m_tau / ua) * (m_tau / ua) * one_minus_exp_over(m_tau * (1.0 / ub - 1.0 / ua));
+            const double to_bottom = exp_difference(1.0 / ua, 1.0 / ub, m_tau) / ua;
             const double f = 0.25 * m_omega / ub;
             out.block.r(a, b) = 0.5 * (ha(a, b) + hb(a, b)) +
                                 (0.5 * m_omega * up(a, b) + f * pab.minus(a, b)) * to_top;

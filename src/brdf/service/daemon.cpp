@@ -1,7 +1,9 @@
 #include <brdf/service/daemon.h>
 
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/progress.h>
 #include <brdf/service/spool.h>
 
 #include <nlohmann/json.hpp>
@@ -14,7 +16,9 @@
 #include <condition_variable>
 #include <csignal>
 #include <cstring>
+#include <cstdint>
 #include <fcntl.h>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <poll.h>
@@ -118,10 +122,114 @@ private:
     struct sigaction m_old_int{};
 };
 
-/// inotify on incoming/: a file renamed in (IN_MOVED_TO) or written there and closed (IN_CLOSE_WRITE)
-/// makes the descriptor readable. Not available (inotify_init1 or the watch fails: no inotify, out of
-/// watches): fd() is -1 and the daemon relies on polling alone. On network file systems the watch
-/// succeeds but sees only this host's changes; polling covers the rest.
+/// Whether some process has `file` open for writing, asked the kernel's way: a read lease
+/// (fcntl F_SETLEASE, F_RDLCK) is granted only when nobody does. nullopt when the kernel cannot
+/// say: leases need a local file system and a file we own (or CAP_LEASE).
+std::optional<bool> open_for_writing(const std::filesystem::path& file) {
+    const int fd = ::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOFOLLOW);
+    if (fd < 0) return std::nullopt;
+    std::optional<bool> answer;
+    if (::fcntl(fd, F_SETLEASE, F_RDLCK) == 0) {
+        ::fcntl(fd, F_SETLEASE, F_UNLCK);
+        answer = false;
+    } else if (errno == EAGAIN) {
+        answer = true;
+    }
+    ::close(fd);
+    return answer;
+}
+
+/// Which specs in incoming/ may be claimed. A spec renamed in (the protocol) is complete the moment
+/// its name appears. One written in place is complete only when its writer is done, which nothing
+/// says for certain; so, by what is known of it:
+///  - renamed in (inotify IN_MOVED_TO, which is also how requeued jobs come back): at once;
+///  - being written (IN_MODIFY seen, no IN_CLOSE_WRITE since): never, however long the writer
+///    pauses; the kernel closes the file when the writer exits, whatever way it dies;
+///  - closed after writing (IN_CLOSE_WRITE), just created (IN_CREATE: an empty file, or a link),
+///    or never seen by inotify (there before the daemon started, written from another host of a
+///    network file system, no inotify): once its size and modification time have stayed the same
+///    for the settle time, and a just-created file only once it is not empty.
+/// A file that changes is timed again from the change. On top of all this, a file that the kernel
+/// says is open for writing by anyone (open_for_writing) is never taken: that covers a writer that
+/// pauses for longer than the settle time where inotify is off, as long as leases work (a local
+/// file system, specs owned by the daemon's user or a daemon with CAP_LEASE).
+/// The owner (Daemon) serialises all calls.
+class IncomingTracker {
+public:
+    enum class Seen { Unknown, Created, Writing, Closed, RenamedIn };
+
+    void saw(const std::string& name, Seen what) {
+        Entry& e = m_entries[name];
+        // A file being written stays so until it is closed: a create or rename event in between
+        // cannot make it complete.
+        if (e.seen == Seen::Writing && what == Seen::Created) return;
+        e.seen = what;
+        e.stable_since.reset();
+    }
+    void forget(const std::string& name) { m_entries.erase(name); }
+    /// inotify's queue overflowed: what was known is lost; every file is judged by stability.
+    void lose_track() {
+        for (auto& [name, e] : m_entries) {
+            e.seen = Seen::Unknown;
+            e.stable_since.reset();
+        }
+    }
+
+    /// Of `queued` (oldest first), the names that may be claimed at `now`, in the same order.
+    /// `next` is set to the soonest moment another one may become ready (unchanged when none can).
+    std::vector<std::string> ready(const std::filesystem::path& incoming,
+                                   const std::vector<Spool::Queued>& queued, Clock::time_point now,
+                                   Clock::duration settle, std::optional<Clock::time_point>& next) {
+        std::vector<std::string> names;
+        std::map<std::string, Entry> kept;
+        for (const Spool::Queued& q : queued) {
+            Entry e = m_entries.count(q.name) ? m_entries[q.name] : Entry{};
+            const bool changed = !e.stable_since || e.size != q.size || e.mtime != q.mtime;
+            if (changed) {
+                e.size = q.size;
+                e.mtime = q.mtime;
+                e.stable_since = now;
+            }
+            const bool settled = now - *e.stable_since >= settle;
+            bool take = false;
+            switch (e.seen) {
+            case Seen::RenamedIn: take = true; break;
+            case Seen::Writing: take = false; break;
+            case Seen::Created: take = settled && q.size > 0; break;
+            case Seen::Closed:
+            case Seen::Unknown: take = settled; break;
+            }
+            if (take && open_for_writing(incoming / q.name).value_or(false)) {
+                take = false; // timed again once its writer has closed it
+                e.stable_since = now;
+            }
+            if (take) {
+                names.push_back(q.name);
+            } else if (e.seen != Seen::Writing && !(e.seen == Seen::Created && settled)) {
+                const Clock::time_point at = *e.stable_since + settle;
+                if (!next || at < *next) next = at;
+            }
+            kept[q.name] = e;
+        }
+        m_entries = std::move(kept); // claimed or removed files are forgotten
+        return names;
+    }
+
+private:
+    struct Entry {
+        Seen seen = Seen::Unknown;
+        std::uintmax_t size = 0;
+        std::filesystem::file_time_type mtime{};
+        std::optional<Clock::time_point> stable_since; ///< when size and mtime were last seen to change
+    };
+    std::map<std::string, Entry> m_entries;
+};
+
+/// inotify on incoming/: renames in, creations, writes, closes after writing and removals make the
+/// descriptor readable; drain() hands each to the IncomingTracker. Not available (inotify_init1
+/// or the watch fails: no inotify, out of watches): fd() is -1 and the daemon relies on polling and
+/// the settle time alone. On network file systems the watch succeeds but sees only this host's
+/// changes; polling covers the rest.
 class IncomingWatch {
 public:
     IncomingWatch(const std::filesystem::path& dir, bool enabled) {
@@ -131,7 +239,9 @@ public:
             log::warn("brdfd: inotify unavailable (", std::strerror(errno), "); polling ", dir.string());
             return;
         }
-        if (::inotify_add_watch(m_fd, dir.c_str(), IN_MOVED_TO | IN_CLOSE_WRITE | IN_ONLYDIR) < 0) {
+        constexpr std::uint32_t mask = IN_MOVED_TO | IN_CREATE | IN_MODIFY | IN_CLOSE_WRITE |
+                                       IN_DELETE | IN_MOVED_FROM | IN_ONLYDIR;
+        if (::inotify_add_watch(m_fd, dir.c_str(), mask) < 0) {
             log::warn("brdfd: cannot watch ", dir.string(), " with inotify (", std::strerror(errno),
                       "); polling it");
             ::close(m_fd);
@@ -145,24 +255,49 @@ public:
     IncomingWatch& operator=(const IncomingWatch&) = delete;
 
     int fd() const { return m_fd; }
-    /// Reads every pending event: one wake-up stands for all of them (workers rescan incoming/).
-    /// Stops watching if the descriptor fails (the queue overflowed is not a failure: just a wake).
-    void drain() {
+    /// Reads every pending event into `tracker`. Stops watching if the descriptor fails; an
+    /// overflowed queue only makes the tracker forget what it knew.
+    void drain(IncomingTracker& tracker) {
         alignas(inotify_event) char buf[16384];
         for (;;) {
             const ssize_t k = ::read(m_fd, buf, sizeof buf);
-            if (k > 0) continue;
+            if (k > 0) {
+                for (ssize_t at = 0; at + static_cast<ssize_t>(sizeof(inotify_event)) <= k;) {
+                    const auto* ev = reinterpret_cast<const inotify_event*>(buf + at);
+                    apply(*ev, tracker);
+                    at += static_cast<ssize_t>(sizeof(inotify_event) + ev->len);
+                }
+                continue;
+            }
             if (k < 0 && errno == EINTR) continue;
             if (k < 0 && errno != EAGAIN) {
                 log::warn("brdfd: inotify read failed (", std::strerror(errno), "); polling only");
                 ::close(m_fd);
                 m_fd = -1;
+                tracker.lose_track();
             }
             return;
         }
     }
 
 private:
+    static void apply(const inotify_event& ev, IncomingTracker& tracker) {
+        using Seen = IncomingTracker::Seen;
+        if (ev.mask & IN_Q_OVERFLOW) {
+            log::warn("brdfd: inotify queue overflowed; specs written in place are judged by the "
+                      "settle time alone until the queue drains");
+            tracker.lose_track();
+            return;
+        }
+        if (ev.len == 0 || (ev.mask & IN_ISDIR)) return;
+        const std::string name(ev.name);
+        if (ev.mask & (IN_DELETE | IN_MOVED_FROM)) tracker.forget(name);
+        if (ev.mask & IN_CREATE) tracker.saw(name, Seen::Created);
+        if (ev.mask & IN_MOVED_TO) tracker.saw(name, Seen::RenamedIn);
+        if (ev.mask & IN_MODIFY) tracker.saw(name, Seen::Writing);
+        if (ev.mask & IN_CLOSE_WRITE) tracker.saw(name, Seen::Closed);
+    }
+
     int m_fd = -1;
 };
 
@@ -177,8 +312,9 @@ public:
     Daemon(const DaemonOptions& options, const JobRunner& runner)
         : m_options(options), m_runner(runner), m_spool(options.spool),
           m_start_time(std::filesystem::file_time_type::clock::now()), m_lease(m_spool),
-          m_started(iso8601_now()), m_poll(std::chrono::duration_cast<Clock::duration>(
-                                        std::chrono::duration<double>(options.poll_seconds))) {}
+          m_started(iso8601_now()),
+          m_poll(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.poll_seconds))),
+          m_settle(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.settle_seconds))) {}
 
     int run() {
         for (const std::string& name : m_spool.requeue_orphans())
@@ -212,10 +348,10 @@ public:
             const char c = m_wake.wait(watch.fd());
             if (c == wake_finished) break;
             if (c == wake_incoming) {
-                watch.drain();
                 // Under the mutex: a worker is either before its look into incoming/ (and will see
                 // the new file) or already waiting on m_cv (and is woken). No wake-up is lost.
                 std::lock_guard lock(m_mutex);
+                watch.drain(m_incoming);
                 m_cv.notify_all();
                 continue;
             }
@@ -270,13 +406,18 @@ private:
                 m_cv.notify_all();
                 continue;
             }
-            if (m_options.once && m_running.empty()) {
-                // Nothing queued and nothing of ours running: drained.
+            if (m_options.once && m_running.empty() && m_spool.queued().empty()) {
+                // Nothing queued (not even a spec still being written) and nothing of ours
+                // running: drained.
                 m_drained = true;
                 m_cv.notify_all();
                 break;
             }
-            m_cv.wait_for(lock, m_poll);
+            // Until the next poll, or sooner when a spec written in place will have settled.
+            Clock::duration wait = m_poll;
+            if (m_next_settled) wait = std::min(wait, std::max(Clock::duration(std::chrono::milliseconds(1)),
+                                                               *m_next_settled - Clock::now()));
+            m_cv.wait_for(lock, wait);
             if (m_spool.queued().size() != m_last_queued) write_status_locked();
         }
         if (--m_live_workers == 0) m_wake.notify(wake_finished);
@@ -303,7 +444,10 @@ private:
 
     /// Claims the oldest job this daemon can get; none when incoming/ is empty or others won them all.
     std::optional<std::string> claim_next_locked() {
-        for (const std::string& name : m_spool.queued())
+        m_next_settled.reset();
+        for (const std::string& name :
+             m_incoming.ready(m_spool.incoming(), m_spool.queued_jobs(), Clock::now(), m_settle,
+                              m_next_settled))
             if (m_spool.claim(name, m_lease)) return name;
         return std::nullopt;
     }
@@ -328,6 +472,12 @@ private:
             message = "unknown exception";
         }
         const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+        // The runner named the spec where it ran (active/NAME); say where it is now.
+        const std::string ran_at = (m_spool.active() / name).string();
+        const std::string filed_at = (m_spool.failed() / name).string();
+        for (std::size_t at = 0; !ok && (at = message.find(ran_at, at)) != std::string::npos;
+             at += filed_at.size())
+            message.replace(at, ran_at.size(), filed_at);
         try {
             if (ok)
                 m_spool.finish(name);
@@ -338,9 +488,9 @@ private:
                        e.what());
         }
         if (ok)
-            log::info("job ", name, ": done in ", seconds, " s");
+            log::info("job ", name, ": done in ", format_duration(seconds));
         else
-            log::error("job ", name, ": failed after ", seconds, " s (", kind, "): ", message);
+            log::error("job ", name, ": failed after ", format_duration(seconds), " (", kind, "): ", message);
         return ok;
     }
 
@@ -359,7 +509,7 @@ private:
                                        {"done", m_done},
                                        {"failed", m_failed}};
         try {
-            write_file_atomic(m_spool.status_file(), status.dump(2) + "\n", false);
+            write_file_atomically(m_spool.status_file(), status.dump(2) + "\n");
         } catch (const Error& e) {
             log::warn("brdfd: ", e.what());
         }
@@ -372,6 +522,7 @@ private:
     DaemonLease m_lease;
     const std::string m_started;
     const Clock::duration m_poll;
+    const Clock::duration m_settle;
     WakePipe m_wake;
 
     std::mutex m_mutex; // guards everything below
@@ -385,6 +536,8 @@ private:
     int m_live_workers = 0;
     std::size_t m_last_queued = 0;
     Clock::time_point m_last_orphan_scan;
+    IncomingTracker m_incoming;
+    std::optional<Clock::time_point> m_next_settled; ///< when a waiting spec will have settled
 };
 
 } // namespace
@@ -396,6 +549,9 @@ int run_daemon(const DaemonOptions& options, const JobRunner& runner) {
     if (!(options.poll_seconds > 0.0) || !std::isfinite(options.poll_seconds) ||
         options.poll_seconds > 3600.0)
         throw InputError(cat("--poll: must be in (0, 3600] seconds (got ", options.poll_seconds, ")"));
+    if (!(options.settle_seconds >= 0.0) || !std::isfinite(options.settle_seconds) ||
+        options.settle_seconds > 3600.0)
+        throw InputError(cat("--settle: must be in [0, 3600] seconds (got ", options.settle_seconds, ")"));
     if (!runner) throw std::invalid_argument("run_daemon: no job runner");
     Daemon daemon(options, runner);
     return daemon.run();

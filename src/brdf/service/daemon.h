@@ -19,9 +19,15 @@ struct DaemonOptions {
     int workers = 1;               ///< concurrent jobs, >= 1
     bool once = false;             ///< drain the spool and return instead of serving forever
     double poll_seconds = 0.5;     ///< how often idle workers look into incoming/, > 0
-    /// Wake idle workers through inotify (IN_MOVED_TO | IN_CLOSE_WRITE on incoming/) as soon as a
-    /// file arrives; polling every `poll_seconds` stays on as the fallback (inotify unavailable, or a
-    /// network file system where it does not see other hosts' writes).
+    /// A spec written in place into incoming/ (not renamed in, as the protocol asks) is taken only
+    /// once it has not changed for this long, in seconds, >= 0: a writer that pauses mid-write must
+    /// not have its half a spec claimed. With inotify a file still open for writing is never taken
+    /// and one renamed in is taken at once (docs/daemon.md, "Noticing new specs").
+    double settle_seconds = 1.0;
+    /// Watch incoming/ with inotify: a file renamed in (IN_MOVED_TO) wakes idle workers at once;
+    /// writes in place (IN_CREATE, IN_MODIFY ... IN_CLOSE_WRITE) are tracked so that an open file
+    /// is not taken. Polling every `poll_seconds` stays on as the fallback (inotify unavailable, or
+    /// a network file system where it does not see other hosts' writes).
     bool watch_incoming = true;
     /// Turn SIGTERM/SIGINT into a graceful stop while run_daemon runs (previous handlers are restored
     /// afterwards). Only one run_daemon per process may do this at a time; daemons embedded in tests

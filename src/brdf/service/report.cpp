@@ -15,12 +15,12 @@
 
 namespace brdf::service {
 
-nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::string>& outputs) {
+nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std::string>& outputs) {
     using nlohmann::json;
     json samples = json::array();
     int max_orders = 0;
     double worst_residual = 0.0;
-    for (const Sample& s : m.samples) {
+    for (const model::WavelengthSolution& s : m.samples) {
         const auto& setup = s.reflection.setup();
         json iterations = json::array(), residuals = json::array();
         for (const auto& sol : s.reflection.solutions()) {
@@ -30,7 +30,7 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
         }
         max_orders = std::max(max_orders, setup.orders);
         json pigments = json::array();
-        for (const PigmentOptics& p : s.optics.pigments)
+        for (const model::PigmentOptics& p : s.optics.pigments)
             pigments.push_back({{"albedo", p.albedo}, {"g", p.g}, {"csca_um2", p.csca_um2}, {"cext_um2", p.cext_um2},
                                 {"number_density_per_um3", p.number_density_um3}, {"legendre", p.legendre},
                                 {"radius_nodes", p.radius_nodes}, {"mie_error_estimate", p.mie_error}});
@@ -39,7 +39,7 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
                       {"legendre", s.optics.medium.beta.size()},
                       {"binder_index", s.optics.binder_index},
                       {"weight_rgb", s.weight},
-                      {"delta_m_fraction", setup.truncated.f},
+                      {"delta_m_fraction", setup.layers.front().truncated.f},
                       {"fourier_orders", setup.orders},
                       {"iterations", iterations},
                       {"residuals", residuals}};
@@ -83,31 +83,6 @@ nlohmann::json make_report(const SolvedMaterial& m, const std::vector<std::strin
                      {"write", m.seconds.write}}},
         {"warnings", m.spec.warnings},
     };
-}
-
-void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-    // Unique per call, not only per process: two daemon workers may write the same report at once
-    // (identical specs submitted together), and a shared temporary would make one rename fail.
-    static std::atomic<unsigned long> counter{0};
-    const std::filesystem::path tmp = path.parent_path() / cat(".", path.filename().string(), ".", getpid(), ".",
-                                                               counter.fetch_add(1), ".tmp");
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) throw IoError(cat(path.string(), ": cannot write (", std::strerror(errno), ")"));
-        out << text;
-        out.flush();
-        if (!out) {
-            std::error_code ec;
-            std::filesystem::remove(tmp, ec);
-            throw IoError(cat(path.string(), ": write failed"));
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        throw IoError(cat(path.string(), ": cannot rename into place (", ec.message(), ")"));
-    }
 }
 
 } // namespace brdf::service

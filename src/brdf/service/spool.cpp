@@ -1,5 +1,6 @@
 #include <brdf/service/spool.h>
 
+#include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 
@@ -118,35 +119,21 @@ std::string iso8601_now() {
     return stamp;
 }
 
-void write_file_atomic(const fs::path& path, std::string_view content, bool durable) {
-    static std::atomic<unsigned long> counter{0};
-    const fs::path tmp = path.parent_path() / cat(".", path.filename().string(), ".", ::getpid(), ".",
-                                                  counter.fetch_add(1), ".tmp");
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) throw IoError(cat(path.string(), ": cannot write: ", errno_text(errno)));
-    std::size_t done = 0;
-    int err = 0;
-    while (done < content.size()) {
-        const ssize_t k = ::write(fd, content.data() + done, content.size() - done);
-        if (k < 0) {
-            if (errno == EINTR) continue;
-            err = errno;
-            break;
-        }
-        done += static_cast<std::size_t>(k);
-    }
-    if (err == 0 && durable && ::fsync(fd) != 0) err = errno;
-    if (::close(fd) != 0 && err == 0) err = errno;
-    if (err == 0 && ::rename(tmp.c_str(), path.c_str()) != 0) err = errno;
-    if (err != 0) {
-        ::unlink(tmp.c_str());
-        throw IoError(cat(path.string(), ": cannot write: ", errno_text(err)));
-    }
-}
-
 // --- Spool ---------------------------------------------------------------------------------------
 
-Spool::Spool(fs::path root) : m_root(std::move(root)) {
+namespace {
+
+fs::path absolute_folder(const fs::path& root) {
+    std::error_code ec;
+    fs::path path = fs::absolute(root, ec).lexically_normal();
+    if (ec) path = root.lexically_normal();
+    if (path.has_parent_path() && path.filename().empty()) path = path.parent_path(); // "spool/"
+    return path;
+}
+
+} // namespace
+
+Spool::Spool(fs::path root) : m_root(absolute_folder(root)) {
     for (const fs::path& dir : {m_root, incoming(), active(), results(), done(), failed(), daemons()}) {
         std::error_code ec;
         fs::create_directories(dir, ec);
@@ -168,12 +155,8 @@ std::string Spool::error_name(std::string_view name) {
 
 fs::path Spool::owner_file(const std::string& name) const { return active() / (name + ".owner"); }
 
-std::vector<std::string> Spool::queued() const {
-    struct Entry {
-        fs::file_time_type mtime;
-        std::string name;
-    };
-    std::vector<Entry> entries;
+std::vector<Spool::Queued> Spool::queued_jobs() const {
+    std::vector<Queued> entries;
     std::error_code ec;
     for (fs::directory_iterator it(incoming(), ec), end; !ec && it != end; it.increment(ec)) {
         std::string name = it->path().filename().string();
@@ -182,14 +165,19 @@ std::vector<std::string> Spool::queued() const {
         if (!it->is_regular_file(entry_ec)) continue;
         const fs::file_time_type mtime = it->last_write_time(entry_ec);
         if (entry_ec) continue; // taken by someone else while we looked
-        entries.push_back({mtime, std::move(name)});
+        const std::uintmax_t size = it->file_size(entry_ec);
+        if (entry_ec) continue;
+        entries.push_back({std::move(name), mtime, size});
     }
-    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    std::sort(entries.begin(), entries.end(), [](const Queued& a, const Queued& b) {
         return a.mtime != b.mtime ? a.mtime < b.mtime : a.name < b.name;
     });
+    return entries;
+}
+
+std::vector<std::string> Spool::queued() const {
     std::vector<std::string> names;
-    names.reserve(entries.size());
-    for (Entry& e : entries) names.push_back(std::move(e.name));
+    for (Queued& q : queued_jobs()) names.push_back(std::move(q.name));
     return names;
 }
 
@@ -214,7 +202,7 @@ bool Spool::claim(const std::string& name, const DaemonLease& owner) {
                                    {"host", host_name()},
                                    {"claimed", iso8601_now()}};
     // Should this throw, the job sits in active/ without an owner and the next orphan scan requeues it.
-    write_file_atomic(owner_file(name), record.dump() + "\n", false);
+    write_file_atomically(owner_file(name), record.dump() + "\n");
     return true;
 }
 
@@ -236,7 +224,7 @@ void Spool::fail(const std::string& name, const std::string& kind, const std::st
                                    {"time", iso8601_now()},
                                    {"seconds", seconds}};
     // The record first, so whoever sees failed/NAME also finds its reason.
-    write_file_atomic(failed() / error_name(name), record.dump(2) + "\n", true);
+    write_file_atomically(failed() / error_name(name), record.dump(2) + "\n");
     rename_or_throw(active() / name, failed() / name);
     std::error_code ec;
     fs::remove(owner_file(name), ec);
@@ -329,9 +317,9 @@ bool all_digits(std::string_view s) {
 }
 
 /// The writer's pid in a temporary's name, or 0 when the name does not carry one. Names:
-/// ".T.tmp.PID.N.STAMP" (formats' AtomicFile), ".T.PID.tmp" (write_text_atomically),
-/// ".T.PID.N.tmp" (write_file_atomic), where T is the target's name, and ".HOST-PID-RANDOM.lock.tmp"
-/// (a daemon lease being registered).
+/// ".T.tmp.PID.N.STAMP[.EXT]" (core's AtomicFile), where T is the target's name,
+/// ".HOST-PID-RANDOM.lock.tmp" (a daemon lease being registered), and ".T.PID.tmp", ".T.PID.N.tmp"
+/// (writers of earlier versions, whose leftovers may still be in a spool).
 pid_t temporary_writer_pid(std::string_view name) {
     const std::vector<std::string_view> parts = split_dots(name.substr(1));
     const std::size_t n = parts.size();

@@ -12,6 +12,7 @@
 //   .spool.lock          flock: claims take it shared, the orphan scan exclusive
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -24,7 +25,8 @@ class DaemonLease;
 class Spool {
 public:
     /// Opens the spool at `root`, creating it and its folders when missing; throws IoError when a
-    /// folder cannot be created.
+    /// folder cannot be created. root() is absolute (a relative `root` is taken from the current
+    /// folder now), so every path the spool and the daemon report names the real place.
     explicit Spool(std::filesystem::path root);
 
     const std::filesystem::path& root() const { return m_root; }
@@ -42,7 +44,15 @@ public:
     /// The error record beside a failed spec: "paint.json" -> "paint.error.json".
     static std::string error_name(std::string_view name);
 
+    /// A job waiting in incoming/ as last seen: what tells a finished spec from one being written.
+    struct Queued {
+        std::string name;
+        std::filesystem::file_time_type mtime;
+        std::uintmax_t size = 0;
+    };
     /// Jobs waiting in incoming/ (regular files only), oldest first: by modification time, then name.
+    std::vector<Queued> queued_jobs() const;
+    /// The names of queued_jobs().
     std::vector<std::string> queued() const;
     /// Jobs in active/, by name.
     std::vector<std::string> active_jobs() const;
@@ -72,8 +82,9 @@ public:
     bool daemon_alive(const std::string& id) const;
 
     /// Whether a file name is a temporary of one of the spool's writers: hidden, with a "tmp"
-    /// component (".NAME.tmp.PID.N.STAMP" of the table writers, ".NAME.PID.tmp" of the report writer,
-    /// ".NAME.PID.N.tmp" of write_file_atomic, ".ID.lock.tmp" of a starting daemon).
+    /// component (".NAME.tmp.PID.N.STAMP" of core's AtomicFile, which writes every result, record
+    /// and status file; ".ID.lock.tmp" of a starting daemon; ".NAME.PID.tmp" and ".NAME.PID.N.tmp"
+    /// of the writers of earlier versions).
     static bool is_temporary_name(std::string_view name);
     /// Removes temporaries that a killed writer left in the spool (results/, active/, done/,
     /// failed/, daemons/ and the root; never incoming/, where users stage their own files). A file
@@ -113,10 +124,6 @@ private:
     std::string m_id;
     int m_fd = -1;
 };
-
-/// Writes `content` to a temporary name beside `path`, flushes it (and fsyncs it when `durable`),
-/// then renames it over `path`: readers see the old file or the new one, never a partial one.
-void write_file_atomic(const std::filesystem::path& path, std::string_view content, bool durable);
 
 /// Now as ISO 8601 UTC, e.g. "2024-05-01T12:34:56Z".
 std::string iso8601_now();

@@ -5,7 +5,8 @@ Runs cdisort 2.1.3 through pydisort (pip install pydisort) and writes disort_hg_
 this script: BRDF values (1/sr) of a bare semi-infinite medium (no interface) for Henyey-Greenstein
 phase functions g in {-0.5, 0.5, 0.9, 0.99} and Rayleigh, single-scattering albedo
 omega in {0.5, 0.9, 0.999999}, at theta_i, theta_o in {0, 30, 60, 80} degrees and
-phi in {0, 90, 180} degrees. Run: python3 disort_reference.py  (about a minute).
+phi in {0, 90, 180} degrees. Run: python3 disort_reference.py  (about a minute). Its set-up
+(solve_disort, node_distance) is shared by disort_films.py and bench/speed_vs_error.py.
 
 Settings (docs/physics.md section 6):
 - omega = 1 is not used: DISORT replaces an albedo of exactly 1 by 1 - dither and is ill-conditioned
@@ -37,9 +38,17 @@ import json
 import os
 import time
 
-import numpy as np
-import torch
-import pydisort
+try:
+    import numpy as np
+    import torch
+    import pydisort
+except ImportError:  # test-only dependency: pydisort (brings torch and numpy)
+    import subprocess
+    import sys
+    subprocess.check_call([sys.executable, "-m", "pip", "install", "--quiet", "pydisort"])
+    import numpy as np
+    import torch
+    import pydisort
 from pydisort import Disort, DisortOptions
 
 ANGLES_DEG = [0.0, 30.0, 60.0, 80.0]
@@ -71,22 +80,37 @@ def node_distance(nstr, mu0s):
 
 def run_disort(nstr, omega, pmom, mu0s, mus, phis_g):
     """BRDF[col = mu0 index][phi index][mu index] for ascending mus."""
+    rad, _, seconds = solve_disort(nstr, omega, pmom, mu0s, mus, phis_g)
+    return rad[:, :, 0, :], seconds
+
+
+def solve_disort(nstr, omega, pmom, mu0s, mus, phis_g, tau=TAU, floor_albedo=0.0, user_taus=(0.0,),
+                 only_fluxes=False):
+    """One homogeneous layer over a Lambertian floor, a unit beam (FBEAM = 1) from each mu0.
+
+    Returns (radiance / mu0 [col][phi][user tau][mu], fluxes [col][user tau][8], seconds); the flux
+    columns are cdisort's RFLDIR, RFLDN, FLUP, DFDT, UAVG, UAVGDN, UAVGUP, UAVGSO (RFLDIR and RFLDN
+    are delta-M scaled; their sum is not).
+    """
     nmom = max(len(pmom), nstr)
-    op = DisortOptions().flags("usrtau,usrang,lamber,quiet,intensity_correction,old_intensity_correction")
+    flags = "usrtau,lamber,quiet" + (",onlyfl" if only_fluxes else
+                                     ",usrang,intensity_correction,old_intensity_correction")
+    op = DisortOptions().flags(flags)
     op.ds().nlyr = 1
     op.ds().nstr = nstr
     op.ds().nmom = nmom
     op.ds().nphase = nstr
     op.accur(0.0)
-    op.user_tau(np.array([0.0]))
-    op.user_mu(np.array(mus))
-    op.user_phi(np.array([p + 180.0 for p in phis_g]))
+    op.user_tau(np.array(user_taus, dtype=float))
+    if not only_fluxes:
+        op.user_mu(np.array(mus))
+        op.user_phi(np.array([p + 180.0 for p in phis_g]))
     op.nwave(1)
     op.ncol(len(mu0s))
     t0 = time.perf_counter()  # set-up and solve: what a user of DISORT waits for
     ds = Disort(op)
     prop = torch.zeros((1, len(mu0s), 1, 2 + nmom), dtype=torch.float64)
-    prop[..., 0] = TAU
+    prop[..., 0] = tau
     prop[..., 1] = omega
     pm = np.zeros(nmom)
     pm[: len(pmom)] = pmom
@@ -94,11 +118,14 @@ def run_disort(nstr, omega, pmom, mu0s, mus, phis_g):
     ncol = len(mu0s)
     zeros = torch.zeros((1, ncol), dtype=torch.float64)
     bc = {"umu0": torch.tensor(mu0s, dtype=torch.float64), "phi0": torch.zeros(ncol, dtype=torch.float64),
-          "fbeam": torch.ones((1, ncol), dtype=torch.float64), "albedo": zeros, "fluor": zeros, "fisot": zeros}
+          "fbeam": torch.ones((1, ncol), dtype=torch.float64),
+          "albedo": torch.full((1, ncol), float(floor_albedo), dtype=torch.float64), "fluor": zeros,
+          "fisot": zeros}
     ds.forward(prop, **bc)
-    rad = ds.gather_rad().numpy()  # (nwave, ncol, nphi, ntau, numu)
+    flux = ds.gather_flx().numpy()[0]  # (ncol, ntau, 8)
+    rad = None if only_fluxes else ds.gather_rad().numpy()[0] / np.array(mu0s)[:, None, None, None]
     seconds = time.perf_counter() - t0
-    return rad[0, :, :, 0, :] / np.array(mu0s)[:, None, None], seconds
+    return rad, flux, seconds
 
 
 def main():

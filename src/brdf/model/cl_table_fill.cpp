@@ -1,0 +1,131 @@
+// Host side of kernels/table_fill.cl: packs FillInputs' arrays into one buffer of doubles, runs one
+// work-item per cell and reads the three channel planes straight into a formats::BrdfTable.
+
+#include <brdf/model/cl_table_fill.h>
+
+#include <algorithm>
+#include <thread>
+
+#include <brdf/cl/context.h>
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+#include <brdf/core/threads.h>
+#include <formats/halfdiff.h>
+
+#include <shared/table_fill_layout.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <vector>
+
+namespace brdf::model {
+
+static_assert(sizeof(FillParams) == 80);
+static_assert(offsetof(FillParams, fourier_offset) == 0);
+static_assert(offsetof(FillParams, phase_offset) == 8);
+static_assert(offsetof(FillParams, index_offset) == 16);
+static_assert(offsetof(FillParams, transmission_offset) == 24);
+static_assert(offsetof(FillParams, weight_offset) == 32);
+static_assert(offsetof(FillParams, tau_offset) == 40);
+static_assert(offsetof(FillParams, cell_count) == 48);
+static_assert(offsetof(FillParams, grid) == 56);
+static_assert(offsetof(FillParams, orders) == 60);
+static_assert(offsetof(FillParams, samples) == 64);
+static_assert(offsetof(FillParams, phase_points) == 68);
+static_assert(offsetof(FillParams, fresnel_points) == 72);
+static_assert(offsetof(FillParams, pad) == 76);
+static_assert(TF_CELLS == formats::cells);
+static_assert(TF_THETA_H_BINS == formats::theta_h_bins);
+static_assert(TF_THETA_D_BINS == formats::theta_d_bins);
+static_assert(TF_PHI_D_BINS == formats::phi_d_bins);
+static_assert(TF_NO_DATA == formats::BrdfTable::no_data);
+
+namespace {
+
+void require_size(std::size_t have, std::size_t want, const char* what) {
+    if (have != want)
+        throw InputError(cat("OpenCL table fill: FillInputs::", what, " holds ", have, " values, expected ", want));
+}
+
+void validate(const FillInputs& in) {
+    if (in.orders < 0 || in.samples < 0) throw InputError("OpenCL table fill: negative orders or samples");
+    if (in.orders > 0 && in.grid < 2)
+        throw InputError(cat("OpenCL table fill: grid of ", in.grid, " zenith angles (at least 2)"));
+    if (in.samples > 0 && (in.phase_points < 2 || in.fresnel_points < 2))
+        throw InputError(cat("OpenCL table fill: phase table of ", in.phase_points, " and transmission table of ",
+                             in.fresnel_points, " points (at least 2 each)"));
+    const auto e = static_cast<std::size_t>(std::max(0, in.grid));
+    const auto s = static_cast<std::size_t>(in.samples);
+    require_size(in.fourier.size(), static_cast<std::size_t>(in.orders) * 3 * e * e, "fourier");
+    require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)), "phase");
+    require_size(in.index.size(), s, "index");
+    require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");
+    require_size(in.weight.size(), s * 3, "weight");
+    require_size(in.tau.size(), s, "tau");
+}
+
+} // namespace
+
+formats::BrdfTable fill_table_opencl(const FillInputs& in) {
+    validate(in);
+    FillParams params{};
+    std::vector<double> data;
+    data.reserve(in.fourier.size() + in.phase.size() + in.index.size() + in.transmission.size() + in.weight.size() + 1);
+    auto append = [&data](const std::vector<double>& v) {
+        const auto offset = static_cast<brdf_i64>(data.size());
+        data.insert(data.end(), v.begin(), v.end());
+        return offset;
+    };
+    params.fourier_offset = append(in.fourier);
+    params.phase_offset = append(in.phase);
+    params.index_offset = append(in.index);
+    params.transmission_offset = append(in.transmission);
+    params.weight_offset = append(in.weight);
+    params.tau_offset = append(in.tau);
+    if (data.empty()) data.push_back(0.0);
+    params.cell_count = static_cast<brdf_i64>(formats::cells);
+    params.grid = in.grid;
+    params.orders = in.orders;
+    params.samples = in.samples;
+    params.phase_points = in.phase_points;
+    params.fresnel_points = in.fresnel_points;
+    params.pad = 0;
+
+    auto ctx = brdf::cl::Context::shared();
+    const ::cl::Program program = ctx->program("table_fill");
+    cl_int err = CL_SUCCESS;
+    ::cl::Kernel kernel(program, "table_fill", &err);
+    brdf::cl::check(err, "OpenCL table fill: create kernel table_fill");
+    ::cl::Context& context = ctx->context();
+    ::cl::Buffer param_buf(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof(FillParams), &params, &err);
+    brdf::cl::check(err, "OpenCL table fill: create buffer parameters");
+    ::cl::Buffer data_buf(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, data.size() * sizeof(double), data.data(),
+                          &err);
+    brdf::cl::check(err, "OpenCL table fill: create buffer inputs");
+    const std::size_t plane = formats::cells * sizeof(double);
+    ::cl::Buffer out_buf(context, CL_MEM_WRITE_ONLY, 3 * plane, nullptr, &err);
+    brdf::cl::check(err, "OpenCL table fill: create buffer output");
+    brdf::cl::check(kernel.setArg(0, param_buf), "OpenCL table fill: set argument parameters");
+    brdf::cl::check(kernel.setArg(1, data_buf), "OpenCL table fill: set argument inputs");
+    brdf::cl::check(kernel.setArg(2, out_buf), "OpenCL table fill: set argument output");
+
+    // Global size rounded up to a multiple of the local size; the kernel ignores ids past the cells.
+    constexpr std::size_t local = 64;
+    const std::size_t global = (formats::cells + local - 1) / local * local;
+    ::cl::CommandQueue& queue = ctx->queue();
+    brdf::cl::check(queue.enqueueNDRangeKernel(kernel, ::cl::NullRange, ::cl::NDRange(global), ::cl::NDRange(local)),
+                    "OpenCL table fill: run table_fill");
+    formats::BrdfTable table;
+    for (int c = 0; c < 3; ++c)
+        brdf::cl::check(queue.enqueueReadBuffer(out_buf, CL_FALSE, c * plane, plane, table.channels[c].data()),
+                        "OpenCL table fill: read output");
+    brdf::cl::check(queue.finish(), "OpenCL table fill: finish");
+    return table;
+}
+
+formats::BrdfTable fill_table(const FillInputs& in, Device device) {
+    if (device == Device::OpenCL) return fill_table_opencl(in);
+    return fill_table_cpu(in, available_cpus());
+}
+
+} // namespace brdf::model

@@ -1,0 +1,90 @@
+#pragma once
+// A material solved: per wavelength (or per RGB channel of an analytic medium) the optics and the
+// reflection function, with the colour weights that turn spectra into linear Rec.709 RGB. Evaluation
+// at exact angles (brdftool eval / albedo on a spec) and the table fill both start here.
+
+#include <brdf/material/spec.h>
+#include <brdf/rte/dipole.h>
+#include <brdf/rte/reflection.h>
+#include <brdf/model/optics.h>
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace brdf::model {
+
+using Rgb = std::array<double, 3>;
+
+enum class Device { OpenCL, Cpu };
+
+/// Numerical settings chosen for a requested relative BRDF error (the spec's accuracy).
+struct NumericalSettings {
+    double tolerance = 1e-4;
+    int streams = 32;               ///< starting point; grown by the convergence check up to max_streams
+    int max_streams = 64;
+    double order_tolerance = 1e-5;
+    double solver_tolerance = 1e-10;
+    double mie_tolerance = 1e-5;
+    int table_grid = 91; ///< zenith angles of the table's Fourier grid, 0..90 degrees
+    rte::Method method = rte::Method::Fast;
+    bool select_wavelengths = true; ///< solve only the wavelengths select_wavelengths() keeps
+};
+NumericalSettings settings_for(double tolerance);
+
+struct WavelengthSolution {
+    double wavelength_nm = 0.0; ///< 0 for a channel of an analytic medium
+    Rgb weight{};               ///< contribution to r, g, b
+    SpectralOptics optics;
+    rte::Reflection reflection;
+    /// Set when the spec asks for "model": "dipole": SolvedMaterial::brdf/albedo/mirror then evaluate
+    /// this comparison model (rte/dipole.h) instead of `reflection` (which is still solved, for the
+    /// report and tables).
+    std::optional<rte::Dipole> dipole;
+};
+
+struct StageSeconds {
+    double optics = 0.0, solve = 0.0, table = 0.0, write = 0.0;
+};
+
+struct SolvedMaterial {
+    material::MaterialSpec spec;
+    NumericalSettings settings;
+    std::vector<WavelengthSolution> samples;
+    std::string device; ///< "opencl: DEVICE NAME" or "cpu"
+    std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
+    /// Relative BRDF difference between the chosen stream count and the next larger one on the
+    /// hardest wavelengths: the error estimate of the solve (0 when not checked).
+    double error_estimate = 0.0;
+    double gamut_scale = 1.0; ///< chroma factor applied by fit_into_gamut (1: colour already in gamut)
+    StageSeconds seconds;
+
+    /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, docs/design.md conventions).
+    Rgb brdf(double theta_i, double theta_o, double phi) const;
+    /// Directional-hemispherical reflectance of the diffuse part.
+    Rgb albedo(double theta_i) const;
+    /// The interface's mirror reflectance (0 with surface "none").
+    Rgb mirror(double theta_i) const;
+};
+
+/// Which wavelengths of a spectrum to solve: where the optics vary smoothly the BRDF is
+/// interpolated (piecewise quadratic in wavelength) between solved ones, which folds each skipped wavelength's
+/// colour weight onto its neighbours. All are solved for tolerance < 1e-6 ("reference").
+struct SpectralSelection {
+    std::vector<std::size_t> solved; ///< indices into the spectrum, ascending, first and last included
+    std::vector<Rgb> weights;        ///< colour weight of each solved wavelength
+};
+SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, const std::vector<Rgb>& weights,
+                                     double tolerance);
+
+/// Brings an out-of-gamut colour into linear Rec.709 by scaling every colour weight's chroma about
+/// its luminance (same factor for all wavelengths: the map stays linear); sets gamut_scale.
+void fit_into_gamut(SolvedMaterial& material);
+
+/// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
+/// device (or the CPU reference).
+SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device);
+SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings);
+
+} // namespace brdf::model

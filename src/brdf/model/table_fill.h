@@ -1,0 +1,47 @@
+#pragma once
+// Filling the 1.46 million cells of the MERL half/difference table from a solved material.
+//
+// The BRDF splits into the multiply scattered part, smooth in every angle, and the single
+// scattering with the full phase function, which carries any sharp forward peak (TMS, Nakajima and
+// Tanaka 1988). The smooth part is evaluated exactly (Nystrom) on a grid of zenith angles per
+// Fourier order, combined into RGB there, and interpolated per cell (Catmull-Rom in theta_i and
+// theta_o) before the Fourier sum in phi. The single scattering is evaluated per cell and per
+// wavelength from a fine table of the phase function, with each wavelength's own refraction.
+// FillInputs is everything a cell needs; the OpenCL kernel and the C++ reference read the same.
+
+#include <brdf/model/model.h>
+#include <formats/table.h>
+
+#include <vector>
+
+namespace brdf::model {
+
+struct FillInputs {
+    int grid = 0;   ///< E: zenith angles theta_a = a / (E - 1) * 90 degrees, a = 0 .. E - 1
+    int orders = 0; ///< M
+    /// fourier[((m * 3 + c) * E + o) * E + i]: (2 - delta_m0) (-1)^m R^m_c(theta_o, theta_i) / pi in
+    /// 1/sr, interface factors included, single scattering on the direct paths removed.
+    std::vector<double> fourier;
+    /// S: single-scattering terms, one per wavelength (or channel) and layer, each with its own
+    /// refraction (Reflection::single_scattering).
+    int samples = 0;
+    int phase_points = 0; ///< K: phase[s * K + k] = (w_s / 4) p_s at sin(Theta/2) = k / (K - 1)
+    std::vector<double> phase;
+    std::vector<double> index;  ///< [s]: the layer's index (1: no interface)
+    /// F: transmission[s * F + k] = A(mu_k) / (n sqrt(pi)), mu_k = k / (F - 1): the layer's path
+    /// factor (Reflection::path_factor) as a table, so the term's factor is t(mu_o) t(mu_i).
+    int fresnel_points = 0;
+    std::vector<double> transmission;
+    std::vector<double> tau;    ///< [s]: the layer's (delta-M scaled) optical thickness, infinite for a half-space
+    std::vector<double> weight; ///< [s * 3 + c]
+};
+
+FillInputs prepare_fill(const SolvedMaterial& material);
+
+/// BRDF of one direction triple (radians) from the fill inputs: the per-cell computation.
+Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi);
+
+/// Every cell, on `threads` CPU threads (the C++ reference of the table-fill kernel).
+formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads);
+
+} // namespace brdf::model
