@@ -51,8 +51,6 @@
 #include <brdf/core/quadrature.h>
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -247,12 +245,11 @@ struct Level {
     double eps;
     static Level at(int l) { return {std::pow(10.0, -(l + 1))}; }
     int nodes(double share, double resolution) const {
-        static const int extra = std::getenv("ROUGH_EXTRA") ? std::atoi(std::getenv("ROUGH_EXTRA")) : 0;
-        if (!(share > eps)) return 2 + extra;
-        return 3 + extra + static_cast<int>(std::ceil(nodes_per_decade * std::log10(share / eps) + resolution));
+        if (!(share > eps)) return 2;
+        return 3 + static_cast<int>(std::ceil(nodes_per_decade * std::log10(share / eps) + resolution));
     }
     // The precision an integral needs when it enters a larger one with this share.
-    Level within(double share) const { static const double f = std::getenv("ROUGH_INNER") ? std::atof(std::getenv("ROUGH_INNER")) : 1.0; return {f * std::min(0.1, eps / std::max(share, 1e-300))}; }
+    Level within(double share) const { return {std::min(0.1, eps / std::max(share, 1e-300))}; }
 };
 constexpr int max_level = 13;
 
@@ -665,7 +662,6 @@ void outer_rule(double lo, double hi, std::vector<Break> breaks, std::span<const
         const double len = side.edges[piece + 1] - side.edges[piece];
         const int degree = side.piece_size(piece) - 1;
         const int n = level.nodes(r, nodes_per_degree * degree * (mu_a - mu_c) / len + sweep(a, c));
-        if (std::getenv("ROUGH_OUTER")) std::fprintf(stderr, "outer [%.9f %.9f] cl %d %d c %.6f s %.2e share %.2e n %d\n", a, c, b[i].cluster, b[i+1].cluster, near->theta, near->sigma, r, n);
         add_graded(a, c, b[i].cluster, b[i + 1].cluster, near->theta, near->sigma, n, piece, r, gauss, out);
     }
 }
@@ -811,11 +807,6 @@ double relative_change(const std::vector<Matrix>& fine, const std::vector<Matrix
     if (!(scale > 0.0)) return 0.0;
     double diff = 0.0;
     for (std::size_t ch = 0; ch < fine.size(); ++ch) diff = std::max(diff, max_abs_diff(fine[ch], coarse[ch]));
-    if (std::getenv("ROUGH_WHERE")) {
-        int bm = 0, bk = 0; double bd = 0;
-        for (int m = 0; m < fine[0].rows(); ++m) for (int k = 0; k < fine[0].cols(); ++k) { double d = std::abs(fine[0](m,k)-coarse[0](m,k)); if (d > bd) { bd = d; bm = m; bk = k; } }
-        std::fprintf(stderr, "   worst m %d k %d rel %.2e (value %.3e, m0 %.3e)\n", bm, bk, bd/scale, fine[0](bm,bk), fine[0](0,bk));
-    }
     return diff / scale;
 }
 
@@ -852,10 +843,8 @@ LevelChoice choose_level(const Facets& fc, const std::vector<Probe>& probes, con
         for (std::size_t i = 0; i < probes.size(); ++i) {
             const Probe& p = probes[i];
             fine.push_back(direction_result(fc, p.kind, p.theta, side, p.theta_max, Level::at(level + 1), orders, channels, ws));
-            if (std::getenv("ROUGH_WHERE")) std::fprintf(stderr, "probe kind %d theta %.6f max %.6f\n", (int)p.kind, p.theta, p.theta_max);
             worst = std::max(worst, relative_change(fine.back(), coarse[i]));
         }
-        if (std::getenv("ROUGH_DEBUG")) std::fprintf(stderr, "level %d -> %d: %.3e  value %.17g  evals so far %lld\n", level, level + 1, worst, fine[0][0](0, 0), ws.evaluations);
         if (worst <= tolerance) return {level + 1, worst};
         coarse = std::move(fine);
         if (level + 1 == max_level)
@@ -1158,16 +1147,3 @@ std::vector<Matrix> air_reflection_orders(const RoughInterface& surface, std::sp
 }
 
 } // namespace brdf::rte
-
-// TEMPORARY debug hook
-namespace brdf::rte {
-std::vector<Matrix> debug_direction(const RoughInterface& s, const StreamPieces& sp, int kind, double theta_i,
-                                    double theta_max, int level, int orders) {
-    Facets fc(s);
-    Workspace ws;
-    auto side = OutputSide::from(sp);
-    auto r = direction_result(fc, static_cast<Kind>(kind), theta_i, side, theta_max, Level::at(level), orders, 1, ws);
-    std::fprintf(stderr, "evals %lld\n", ws.evaluations);
-    return r;
-}
-}
