@@ -969,7 +969,8 @@ StreamPieces stream_pieces(const Streams& streams, std::span<const double> edges
 }
 
 InterfaceKernels interface_kernels(const RoughInterface& surface, const StreamPieces& streams,
-                                   std::span<const double> air_mu, int orders, double tolerance) {
+                                   std::span<const double> air_mu, int orders, double tolerance,
+                                   bool internal_reflection) {
     const char* what = "rough interface kernels";
     check_tolerance(tolerance, what);
     if (orders < 1 || orders > 512) throw InputError(cat(what, ": orders must be in [1, 512] (got ", orders, ")"));
@@ -1003,13 +1004,15 @@ InterfaceKernels interface_kernels(const RoughInterface& surface, const StreamPi
     const LevelChoice air_level =
         air_probes.empty() ? LevelChoice{start_level(tolerance), 0.0}
                            : choose_level(fc, air_probes, side, orders, 2, tolerance, what, ws);
-    const LevelChoice inside_level = choose_level(fc, inside_probes, side, orders, 1, tolerance, what, ws);
+    if (!internal_reflection) inside_probes.clear();
+    const LevelChoice inside_level = inside_probes.empty() ? LevelChoice{start_level(tolerance), 0.0}
+                                                           : choose_level(fc, inside_probes, side, orders, 1, tolerance, what, ws);
     ws.evaluations = 0;
 
     InterfaceKernels out;
     out.t_down.assign(static_cast<std::size_t>(orders), Matrix(n, e_count));
     out.t_up.assign(static_cast<std::size_t>(orders), Matrix(e_count, n));
-    out.r_inside.assign(static_cast<std::size_t>(orders), Matrix(n, n));
+    if (internal_reflection) out.r_inside.assign(static_cast<std::size_t>(orders), Matrix(n, n));
     std::vector<double> q(static_cast<std::size_t>(n));
     for (int k = 0; k < n; ++k) q[k] = 2.0 * checked.streams.w[k] * checked.streams.mu[k];
 
@@ -1022,6 +1025,15 @@ InterfaceKernels interface_kernels(const RoughInterface& surface, const StreamPi
                 out.t_down[m](k, e) = x[0](m, k) / q[k];
                 out.t_up[m](e, k) = x[1](m, k) / q[k];
             }
+    }
+
+    if (!internal_reflection) {
+        out.quadrature.level = air_level.level;
+        out.quadrature.estimated_error = air_level.error;
+        out.quadrature.nodes = ws.evaluations;
+        out.quadrature.directions = e_count;
+        out.quadrature.probe_directions = static_cast<int>(air_probes.size());
+        return out;
     }
 
     // Internal reflection: each pair of inside directions once (outgoing mu >= incident mu'), then

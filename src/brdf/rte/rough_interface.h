@@ -132,8 +132,11 @@ struct InterfaceKernels {
 /// orders in [1, 512], tolerance as for the albedos. Reciprocity holds to rounding:
 /// t_up[m](e, k) = t_down[m](k, e) / n^2 (computed from f_transmit_up, not copied) and r_inside is
 /// symmetric by construction (each pair of inside directions is integrated once).
+/// internal_reflection = false leaves r_inside empty (the transmissions alone, for callers that keep
+/// r_inside of an earlier call: it does not depend on air_mu).
 InterfaceKernels interface_kernels(const RoughInterface& surface, const StreamPieces& streams,
-                                   std::span<const double> air_mu, int orders, double tolerance = 1e-6);
+                                   std::span<const double> air_mu, int orders, double tolerance = 1e-6,
+                                   bool internal_reflection = true);
 
 /// The first-surface lobe between air directions, point values for the Fourier output:
 /// result[m](e, e') = K^m_air(air_mu[e], air_mu[e']) (row = outgoing), symmetric.
