@@ -2,6 +2,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/quadrature.h>
 #include <brdf/core/threads.h>
 
 #include <algorithm>
@@ -26,6 +27,23 @@ constexpr double same_index = 1e-12;
 // 1 - exp(-tau (1/a + 1/b)): a slab's single-scattering factor (1 for a half-space).
 double slab_factor(double tau, double a, double b) {
     return std::isinf(tau) ? 1.0 : -std::expm1(-tau * (1.0 / a + 1.0 / b));
+}
+
+// The rough top's kernels at `tolerance`, or, where the quadrature cannot reach it (a few
+// grazing air cosines at small alpha reach 2.7e-6 at the finest level for 1e-6), at the nearest
+// tenfold looser tolerance it reaches, with a warning; NumericalError beyond 1e-3.
+InterfaceKernels rough_kernels(const RoughInterface& rough, const StreamPieces& pieces, std::span<const double> air,
+                               int orders, double tolerance, bool internal_reflection) {
+    for (double tol = tolerance;; tol *= 10.0) {
+        try {
+            InterfaceKernels k = interface_kernels(rough, pieces, air, orders, tol, internal_reflection);
+            if (tol != tolerance)
+                log::warn("rough interface: kernels converged to ", tol, " instead of ", tolerance);
+            return k;
+        } catch (const NumericalError&) {
+            if (tol * 10.0 > 1e-3) throw;
+        }
+    }
 }
 
 } // namespace
@@ -99,7 +117,10 @@ Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space)
         m_f_above.push_back(piece_reflectance(a, b.index, down));
         m_f_below.push_back(piece_reflectance(b, a.index, up));
     }
-    if (!m_setup.semi_infinite()) return;
+    if (!m_setup.semi_infinite()) {
+        setup_rough();
+        return;
+    }
     const LayerSetup& ls = m_setup.layers.back();
     const Streams& s = ls.streams;
     const int n = s.size();
@@ -121,6 +142,58 @@ Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space)
             for (int j = 0; j < n; ++j) minus_w(i, j) *= s.w[j];
         m_minus_w.push_back(std::move(minus_w));
     }
+    setup_rough();
+}
+
+void Reflection::setup_rough() {
+    if (m_setup.stack.top != Top::Rough) return;
+    const LayerSetup& top = m_setup.layers.front();
+    m_rough = std::make_shared<const RoughInterface>(top.index, m_setup.stack.rough);
+    // The Gauss pieces of layer 0's streams in its own cosine: product integration uses the Lagrange
+    // basis of each piece (the critical-angle split keeps the internal reflection's onset of TIR
+    // at a piece edge, as for the smooth top).
+    std::vector<double> edges{0.0, 1.0};
+    for (const StreamPiece& pc : m_setup.pieces)
+        if (pc.s_hi < top.index - same_index) edges.push_back(std::sqrt(1.0 - (pc.s_hi / top.index) * (pc.s_hi / top.index)));
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    m_rough_pieces = stream_pieces(top.streams, edges);
+    // The kernels' quadrature tolerance follows the order tolerance (clamped: below 1e-7 the
+    // per-stream kernels cost much more and the solution's own error dominates).
+    m_rough_tolerance = std::clamp(m_setup.order_tolerance, 1e-7, 1e-4);
+    const InterfaceKernels k = rough_kernels(*m_rough, m_rough_pieces, {}, m_setup.orders, m_rough_tolerance, true);
+    const Streams& s = top.streams;
+    const int n = s.size();
+    for (int m = 0; m < m_setup.orders; ++m) {
+        // Adding (docs/physics.md section 9): the upward field under the interface is
+        // U = (I - R_b Q R_in Q)^-1 R_b Q D for a downward field D just below it.
+        const Reflector b = below_top(m, {});
+        Matrix rq = b.nn;
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) rq(i, j) *= 2.0 * s.w[j] * s.mu[j];
+        Matrix inq = k.r_inside[m];
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) inq(i, j) *= 2.0 * s.w[j] * s.mu[j];
+        Matrix a = Matrix::identity(n);
+        Matrix loop = rq * inq;
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) a(i, j) -= loop(i, j);
+        LuFactor(std::move(a)).solve(rq);
+        m_rough_zq.push_back(std::move(rq));
+    }
+}
+
+Matrix Reflection::rough_body(int m, const InterfaceKernels& kernels) const {
+    const Streams& s = m_setup.layers.front().streams;
+    Matrix up = kernels.t_up[m];
+    for (int e = 0; e < up.rows(); ++e)
+        for (int j = 0; j < up.cols(); ++j) up(e, j) *= 2.0 * s.w[j] * s.mu[j];
+    return (up * m_rough_zq[m]) * kernels.t_down[m];
+}
+
+double Reflection::surface_lobe(double mu_i, double mu_o, double phi) const {
+    if (!m_rough) return 0.0;
+    return m_rough->f_reflect_air(clamp_mu(mu_i), clamp_mu(mu_o), phi);
 }
 
 double Reflection::inside(int k, double mu_air) const {
@@ -247,7 +320,7 @@ Reflector Reflection::external(int m, std::span<const double> mu_air) const {
     case Top::Smooth: return add_interface(top_interface(mu_air), b, Streams{}, m_setup.layers.front().streams);
     case Top::Rough: break;
     }
-    throw InputError("reflection: rough surfaces are not available yet");
+    throw InternalError("reflection: a rough top's orders come from order_grid");
 }
 
 double Reflection::path_factor(int k, double mu_air) const {
@@ -298,6 +371,16 @@ OrderGrid Reflection::order_grid(std::span<const double> mu_air) const {
     // Per layer: the path factors and cosines of every direction, for the truncated single
     // scattering removed below (the exact one is added back per direction: TMS).
     std::vector<std::vector<double>> factor(static_cast<std::size_t>(nl)), u(static_cast<std::size_t>(nl));
+    if (m_rough) {
+        // Under a rough top the body's orders carry the single scattering too, with the delta-M
+        // phase function: the rough refraction spreads every direct path over the lobe, so the
+        // TMS correction (exact phase function on one pair of refracted directions) does not
+        // apply as it does under a smooth top (docs/physics.md, "Rough interface").
+        const InterfaceKernels k =
+            rough_kernels(*m_rough, m_rough_pieces, mu, m_setup.orders, m_rough_tolerance, false);
+        for (int m = 0; m < m_setup.orders; ++m) grid.orders.push_back(rough_body(m, k));
+        return grid;
+    }
     for (int k = 0; k < nl; ++k)
         for (double m : mu) factor[k].push_back(path_factor(k, m)), u[k].push_back(inside(k, m));
     for (int m = 0; m < m_setup.orders; ++m) {
@@ -328,7 +411,7 @@ double Reflection::brdf(double mu_i, double mu_o, double phi) const {
         sum += (m == 0 ? 1.0 : 2.0) * sign * grid.orders[m](0, 1) * std::cos(m * phi);
     }
     sum += single_scattering(mu_o, mu_i, phi);
-    return std::max(0.0, sum) * std::numbers::inv_pi;
+    return std::max(0.0, sum) * std::numbers::inv_pi + surface_lobe(mu_i, mu_o, phi);
 }
 
 double Reflection::albedo(double mu_i) const {
@@ -350,9 +433,19 @@ double Reflection::albedo(double mu_i) const {
         for (int k = 0; k < s.size(); ++k) a += 2.0 * s.w[k] * s.mu[k] * (1.0 - f.f_below[k]) * z.en(0, k);
         return a * (1.0 - f.f_e[0]);
     }
-    case Top::Rough: break;
+    case Top::Rough: {
+        // Lobe: its closed-form albedo; body: order 0 on a Gauss rule in the outgoing air cosine.
+        constexpr int rule = 32;
+        const Quadrature g = gauss_legendre(rule, 0.0, 1.0);
+        std::vector<double> us = g.x;
+        us.push_back(mu_i);
+        const InterfaceKernels k = rough_kernels(*m_rough, m_rough_pieces, us, 1, m_rough_tolerance, false);
+        const Matrix body = rough_body(0, k);
+        for (int j = 0; j < rule; ++j) a += g.w[j] * 2.0 * g.x[j] * body(j, rule);
+        return a + m_rough->albedo_from_air(mu_i, 1e-8).reflected;
     }
-    throw InputError("reflection: rough surfaces are not available yet");
+    }
+    throw InternalError("reflection: unknown top");
 }
 
 double Reflection::mirror(double mu_i) const {

@@ -16,10 +16,12 @@
 #include <brdf/rte/interface.h>
 #include <brdf/rte/order_solver.h>
 #include <brdf/rte/phase.h>
+#include <brdf/rte/rough_interface.h>
 #include <brdf/rte/slab.h>
 #include <brdf/rte/stack.h>
 #include <brdf/rte/streams.h>
 
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -64,16 +66,26 @@ public:
     const std::vector<OrderSolution>& solutions() const { return m_half; }
     int orders() const { return m_setup.orders; }
 
-    /// BRDF (1/sr) without the specular (delta) reflection of smooth interfaces.
+    /// BRDF (1/sr) without the specular (delta) reflection of smooth interfaces. Under a rough top
+    /// (Top::Rough) the whole BRDF: the first-surface lobe exactly (surface_lobe) plus the body.
     double brdf(double mu_i, double mu_o, double phi) const;
     /// Directional-hemispherical reflectance of that BRDF (from the streams' own rule, for which the
-    /// discrete equations conserve energy exactly).
+    /// discrete equations conserve energy exactly). Under a rough top: of the WHOLE BRDF, lobe
+    /// (its closed-form integral) plus body (order 0 on a 32-point Gauss rule in the air cosine);
+    /// at albedo 1 it falls short of 1 by the microfacet model's single-scattering loss.
     double albedo(double mu_i) const;
     /// Specular reflectance: the top interface's mirror plus every specular path through the stack
-    /// (clear layers over index changes); 0 without a smooth top interface.
+    /// (clear layers over index changes); 0 without a smooth top interface (and so under a rough one).
     double mirror(double mu_i) const;
+    /// The rough top's first-surface reflection lobe f_reflect_air (1/sr; graphics azimuth), never
+    /// Fourier expanded: tables add it per cell. 0 unless the top is rough.
+    double surface_lobe(double mu_i, double mu_o, double phi) const;
+    /// The rough top interface (null unless Top::Rough).
+    const RoughInterface* rough_interface() const { return m_rough.get(); }
 
-    /// The multiply scattered part on a set of cosines in air, for tables and evaluation.
+    /// The multiply scattered part on a set of cosines in air, for tables and evaluation. Under a
+    /// rough top: the body (every order of the light that entered; its single scattering included,
+    /// see order_grid in reflection.cpp), without the first-surface lobe.
     OrderGrid order_grid(std::span<const double> mu_air) const;
     /// The exact single scattering of the full phase functions on the direct paths of every layer,
     /// as R (BRDF = R / pi), with interface and attenuation factors.
@@ -103,6 +115,10 @@ private:
     Reflector below_top(int m, std::span<const double> mu_air) const;
     /// R^m between air cosines, specular part separate.
     Reflector external(int m, std::span<const double> mu_air) const;
+    /// Rough top: the interface, its stream pieces and the body's Z Q per order (constructor).
+    void setup_rough();
+    /// Rough top: the body's R^m between the air cosines of `kernels` (T_up Q (Z Q) T_down).
+    Matrix rough_body(int m, const InterfaceKernels& kernels) const;
     /// The truncated single scattering on the direct paths that order_grid removes.
     double truncated_single_scattering(int m, int k, double mu_o_air, double mu_i_air) const;
 
@@ -114,6 +130,13 @@ private:
     /// per stream of layer k + 1); 1 where the light is totally reflected.
     std::vector<double> m_top_f;
     std::vector<std::vector<double>> m_f_above, m_f_below;
+    /// Rough top: the interface, the pieces of layer 0's streams and, per order,
+    /// Z Q = (I - R_b Q R_in Q)^-1 R_b Q (R_b: what layer 0 sees below its top, R_in: the
+    /// interface's internal reflection, Q = diag(q)), so that body = T_up Q (Z Q) T_down.
+    std::shared_ptr<const RoughInterface> m_rough;
+    StreamPieces m_rough_pieces;
+    std::vector<Matrix> m_rough_zq;
+    double m_rough_tolerance = 1e-6;
     std::vector<Matrix> m_gain;    ///< half-space, per order: I - (w/2) P+ W - w M X W P- W (Nystrom kernel)
     std::vector<Matrix> m_minus_w; ///< half-space, per order: P- W
 };

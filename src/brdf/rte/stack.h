@@ -73,7 +73,8 @@ struct StackSetup {
     Stack stack;
     std::vector<LayerSetup> layers;
     std::vector<StreamPiece> pieces;
-    int orders = 1; ///< m = 0 .. orders - 1 (the most any layer needs)
+    int orders = 1; ///< m = 0 .. orders - 1 (the most any layer needs; see setup_stack for a rough top)
+    double order_tolerance = 1e-5; ///< as StackSettings (also the rough top's kernel tolerance)
     bool semi_infinite() const { return !layers.back().layer.finite(); }
 };
 
