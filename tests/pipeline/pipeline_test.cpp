@@ -152,15 +152,10 @@ TEST(Pipeline, RefusesWhatItCannotComputeYet) {
         }
         return std::string("no InputError");
     };
-    EXPECT_EQ(refusal(R"({"name": "f", "medium": {"albedo": 0.9, "optical_depth": 2}})"),
-              "test.json: finite layers (\"thickness_um\", \"optical_depth\", \"substrate\") are "
-              "not supported yet");
-    EXPECT_EQ(refusal(R"({"name": "s", "layers": [{"medium": {"albedo": 0.9, "optical_depth": 1}},
-                                                  {"medium": {"albedo": 0.5}}]})"),
-              "test.json: stacks of several layers (\"layers\") are not supported yet");
-    EXPECT_EQ(refusal(R"({"name": "r", "medium": {"albedo": 0.9, "index": 1.5}, "surface": "satin"})"),
-              "test.json: rough surfaces (\"roughness\", \"gloss\", \"satin\", \"matte\") are not "
-              "supported yet");
+    // The dipole is a semi-infinite comparison model: it has no film.
+    EXPECT_EQ(refusal(R"({"name": "f", "medium": {"albedo": 0.9, "optical_depth": 2}, "model": "dipole"})"),
+              "test.json: \"model\": \"dipole\" is a semi-infinite comparison model; it has no films or stacks "
+              "(remove \"model\" or the thickness)");
     EXPECT_EQ(refusal(R"({"name": "c", "medium": {"albedo": 0.9}, "colorspace": "acescg"})"),
               "test.json: colour spaces other than \"rec709\" are not supported yet");
     EXPECT_EQ(refusal(R"({"name": "o", "medium": {"albedo": 0.9}, "outputs": ["merl", "rgl"]})"),

@@ -14,8 +14,8 @@
 namespace brdf::model {
 namespace {
 
-// What the pipeline computes so far: layer stacks under no or a smooth interface, in Rec.709, into
-// MERL and EXR tables. The spec format already describes more (docs/spec.md); until that lands, such
+// What the pipeline computes so far: layer stacks under no, a smooth or a rough interface, in
+// Rec.709, into MERL and EXR tables. The spec format already describes more (docs/spec.md); until that lands, such
 // a spec is refused here, naming what is missing, instead of being computed as something else.
 void check_supported(const material::MaterialSpec& spec) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
@@ -23,8 +23,6 @@ void check_supported(const material::MaterialSpec& spec) {
         throw InputError(cat(who, ": ", what, " not supported yet"));
     };
     if (spec.layers.empty()) refuse("a material without layers is");
-    if (spec.surface.kind == material::Surface::Rough)
-        refuse("rough surfaces (\"roughness\", \"gloss\", \"satin\", \"matte\") are");
     if (spec.colorspace != material::ColorSpace::Rec709)
         refuse("colour spaces other than \"rec709\" are");
     for (const std::string& f : spec.outputs)
