@@ -62,7 +62,10 @@ void write_spectral_table(const fs::path& path, const model::SolvedMaterial& sol
     formats::SpectralTable table(wavelengths);
     table.spec = spec_json;
     table.generator = std::string(generator_string);
+    const auto t0 = std::chrono::steady_clock::now();
+    int passes = 0;
     model::for_each_spectral_fill(solved, [&](const model::SpectralFill& group) {
+        ++passes;
         const formats::BrdfTable filled = model::fill_table(group.inputs, device);
         for (int c = 0; c < 3; ++c) {
             if (group.sample[c] < 0) continue;
@@ -72,7 +75,11 @@ void write_spectral_table(const fs::path& path, const model::SolvedMaterial& sol
                                                     : formats::SpectralTable::no_data;
         }
     });
+    const auto t1 = std::chrono::steady_clock::now();
     formats::write_spectral_exr(path, table);
+    log::info(solved.spec.name, ": spectral table of ", wavelengths.size(), " wavelengths filled in ", passes,
+              " passes (", std::chrono::duration<double>(t1 - t0).count(), " s), written in ",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count(), " s");
 }
 
 /// The --accuracy override as a spec overlay (material::parse_specs): {"accuracy": "draft"} or
