@@ -41,6 +41,7 @@ TEST(Hash, SpecHashesArePinned) {
         {"zno-white", "43426795aa9f24f7"},          {"carbon-black-grey", "b555a77bc3bf00b5"},
         {"cds-yellow", "7c4fd50514e982d7"},         {"gold-ruby-glass", "9dc46c52f3f748d8"},
         {"tio2-hematite-pink", "d15500fe100fcd15"}, {"analytic-hg-orange", "0f2f0e92551f26b2"},
+        {"cds-copper-mixture", "693df724ffb7adc2"}, // added with issue 18
     };
     const auto specs = material::load_specs(source_dir() / "examples" / "catalogue.json");
     ASSERT_EQ(specs.size(), pinned.size());

@@ -1,5 +1,7 @@
 // brdftool eval: the BRDF (1/sr) as "r g b" per direction triple (docs/design.md). On a spec the solved
-// model is evaluated at exactly the given angles; on a table, by nearest-bin lookup.
+// model is evaluated at exactly the given angles; on a table, by nearest-bin lookup. With --spectral,
+// one value per wavelength instead (a spec with a spectrum: each solved wavelength; a spectral
+// OpenEXR table: each plane), after a "# wavelength_nm ..." line naming them.
 
 #include "commands.h"
 #include "source.h"
@@ -8,7 +10,13 @@
 #include <brdf/core/log.h>
 #include <brdf/core/parse.h>
 
+#include <formats/exr/spectral_exr.h>
+#include <formats/halfdiff.h>
+
+#include <algorithm>
 #include <cmath>
+#include <functional>
+#include <memory>
 #include <cstdio>
 #include <iostream>
 #include <numbers>
@@ -20,8 +28,51 @@ namespace {
 struct EvalFlags {
     std::string input, material;
     std::optional<double> theta_i, theta_o, phi;
+    bool spectral = false;
     DeviceFlag device;
 };
+
+// What eval --spectral evaluates: the solved wavelengths of a model, or the planes of a spectral table.
+struct SpectralSource {
+    std::vector<double> wavelengths_nm;
+    std::function<std::vector<double>(double theta_i, double theta_o, double phi)> values; // radians, 1/sr
+};
+
+SpectralSource load_spectral(const EvalFlags& f) {
+    SpectralSource out;
+    if (!is_spec_file(f.input)) {
+        if (formats::detect_format(f.input) != formats::TableFormat::SpectralExr)
+            throw InputError(cat("eval --spectral: ", f.input, " is not a spectral table (NAME.spectral.exr) or a spec"));
+        auto table = std::make_shared<formats::SpectralTable>(formats::read_spectral_exr(f.input));
+        out.wavelengths_nm = table->wavelengths_nm;
+        out.values = [table](double ti, double to, double phi) {
+            std::vector<double> v(table->planes.size(), 0.0);
+            if (std::cos(ti) <= 0.0 || std::cos(to) <= 0.0) return v;
+            const std::size_t cell = formats::nearest_cell(ti, to, phi);
+            if (!table->has_data(cell)) return v;
+            for (std::size_t j = 0; j < v.size(); ++j) v[j] = table->planes[j][cell];
+            return v;
+        };
+        return out;
+    }
+    auto model = std::make_shared<model::SolvedMaterial>(*load_source(f.input, f.material, f.device.device()).model);
+    for (const model::WavelengthSolution& s : model->samples) {
+        if (s.wavelength_nm <= 0.0)
+            throw InputError(cat("eval --spectral: ", model->spec.name, " is an analytic medium, given per RGB "
+                                 "channel: it has no wavelengths"));
+        out.wavelengths_nm.push_back(s.wavelength_nm);
+    }
+    out.values = [model](double ti, double to, double phi) {
+        std::vector<double> v;
+        const double mi = std::cos(ti), mo = std::cos(to);
+        for (const model::WavelengthSolution& s : model->samples) {
+            const double x = mi <= 0.0 || mo <= 0.0 ? 0.0 : s.dipole ? s.dipole->brdf(mi, mo, phi) : s.reflection.brdf(mi, mo, phi);
+            v.push_back(std::max(0.0, x)); // no output is negative (docs/colour.md)
+        }
+        return v;
+    };
+    return out;
+}
 
 double radians(double degrees) { return degrees * std::numbers::pi / 180.0; }
 
@@ -33,9 +84,24 @@ void check_angles(double ti, double to, double phi, const std::string& where) {
 }
 
 int run_eval(const EvalFlags& f) {
-    const Source source = load_source(f.input, f.material, f.device.device());
+    std::optional<Source> source;
+    std::optional<SpectralSource> spectral;
+    if (f.spectral) {
+        spectral = load_spectral(f);
+        std::printf("# wavelength_nm");
+        for (double l : spectral->wavelengths_nm) std::printf(" %.9g", l);
+        std::printf("\n");
+    } else {
+        source = load_source(f.input, f.material, f.device.device());
+    }
     const auto print = [&](double ti, double to, double phi) {
-        const model::Rgb v = source.brdf(radians(ti), radians(to), radians(phi));
+        if (spectral) {
+            const std::vector<double> v = spectral->values(radians(ti), radians(to), radians(phi));
+            for (std::size_t j = 0; j < v.size(); ++j) std::printf(j == 0 ? "%.9g" : " %.9g", v[j]);
+            std::printf("\n");
+            return;
+        }
+        const model::Rgb v = source->brdf(radians(ti), radians(to), radians(phi));
         std::printf("%.9g %.9g %.9g\n", v[0], v[1], v[2]);
     };
     if (f.theta_i || f.theta_o || f.phi) {
@@ -74,8 +140,12 @@ Subcommand add_eval_command(CLI::App& root) {
     app->add_option("--theta-o", flags->theta_o, "viewer zenith angle, degrees [0, 90]");
     app->add_option("--phi", flags->phi, "azimuth phi_o - phi_i, degrees (0: light's side, 180: mirror side)");
     app->add_option("--material", flags->material, "material name in a catalogue");
+    app->add_flag("--spectral", flags->spectral,
+                  "one value per wavelength instead of r g b (a spec with a spectrum, or a .spectral.exr table)");
     flags->device.add_to(*app);
-    app->footer("Without angle flags, reads lines 'theta_i theta_o phi' (degrees) from stdin.");
+    app->footer("Without angle flags, reads lines 'theta_i theta_o phi' (degrees) from stdin. RGB values are in\n"
+                "the colour space of the spec (its \"colorspace\") or of the table (brdf.colorspace). With\n"
+                "--spectral a first line '# wavelength_nm L1 L2 ...' names the columns.");
     return {app, [flags] { return run_eval(*flags); }};
 }
 

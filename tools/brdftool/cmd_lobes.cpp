@@ -9,6 +9,7 @@
 #include <brdf/core/log.h>
 #include <brdf/preview/image.h>
 #include <brdf/preview/lobes.h>
+#include <brdf/preview/render.h>
 
 #include <memory>
 
@@ -41,7 +42,10 @@ int run_lobes(LobesFlags& f) {
     for (std::size_t k = 0; k < sources.size(); ++k)
         for (double t : f.theta_i) {
             const Source* s = &sources[k];
-            curves.push_back({labels[k], [s](double ti, double to, double phi) { return s->brdf(ti, to, phi); }, t, {}});
+            curves.push_back({labels[k],
+                              preview::in_rec709([s](double ti, double to, double phi) { return s->brdf(ti, to, phi); },
+                                                 s->colorspace()),
+                              t, {}});
         }
     const preview::Image image = preview::plot_lobes(curves, f.options);
     preview::write_image(image, f.output, {0.0, preview::ToneCurve::Clamp});

@@ -33,12 +33,15 @@ int run_render(RenderFlags& f) {
     const Source source = load_source(f.input, f.material, f.device.device());
     if (source.model && source.model->spec.surface.kind == material::Surface::Smooth) {
         const model::SolvedMaterial& m = *source.model;
-        f.options.mirror = [&m](double theta) { return m.mirror(theta); };
+        f.options.mirror = preview::in_rec709([&m](double theta) { return m.mirror(theta); }, m.spec.colorspace);
     } else if (source.table) {
         log::info(f.input, ": a table holds no mirror reflection; rendering the diffuse part only");
     }
+    // Shaded and displayed in Rec.709: the source's colour space converted (preview::in_rec709).
     const preview::Image image = preview::render_sphere(
-        [&source](double ti, double to, double phi) { return source.brdf(ti, to, phi); }, f.options);
+        preview::in_rec709([&source](double ti, double to, double phi) { return source.brdf(ti, to, phi); },
+                           source.colorspace()),
+        f.options);
     preview::write_image(image, f.output, tone);
     log::info("wrote ", f.output);
     return 0;

@@ -2,6 +2,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/material/colour.h>
 #include <brdf/material/spec.h>
 #include <brdf/material/spectrum.h>
 #include <formats/exr/spectral_exr.h>
@@ -96,10 +97,31 @@ model::Rgb Source::albedo(double theta_i) const {
     return formats::directional_albedo(*table, theta_i);
 }
 
+material::ColorSpace Source::colorspace() const {
+    if (model) return model->spec.colorspace;
+    if (table)
+        if (const auto space = material::color_space_from_string(formats::canonical_colorspace(table->colorspace)))
+            return *space;
+    return material::ColorSpace::Rec709;
+}
+
+namespace {
+
+// The "colorspace" of the spec JSON a table records, Rec.709 when it records none.
+material::ColorSpace recorded_colorspace(const std::string& spec) {
+    const nlohmann::json j = nlohmann::json::parse(spec, nullptr, false);
+    if (j.is_object() && j.contains("colorspace") && j["colorspace"].is_string())
+        if (const auto space = material::color_space_from_string(j["colorspace"].get<std::string>())) return *space;
+    return material::ColorSpace::Rec709;
+}
+
+} // namespace
+
 formats::SpectralToRgb spectral_to_rgb() {
     return [](const formats::SpectralTable& spectral) {
         const material::SpectralSet set = material::SpectralSet::integrating(spectral.wavelengths_nm);
-        return formats::spectral_to_rgb(spectral, set.rgb_weights(), formats::default_colorspace);
+        const material::ColorSpace space = recorded_colorspace(spectral.spec);
+        return formats::spectral_to_rgb(spectral, set.rgb_weights(space), std::string(material::to_string(space)));
     };
 }
 

@@ -4,6 +4,7 @@
 // or a table file (.binary, .exr, spectral .exr as RGB; evaluated by nearest-bin lookup). Files are
 // recognised by content (formats::detect_format).
 
+#include <brdf/material/colour_space.h>
 #include <brdf/model/model.h>
 #include <formats/fourier/fourier.h>
 #include <formats/table.h>
@@ -31,13 +32,20 @@ struct Source {
 
     /// BRDF (1/sr) at angles in radians.
     model::Rgb brdf(double theta_i, double theta_o, double phi) const;
+    /// The colour space of brdf() and albedo(): the spec's, the table's (brdf.colorspace, or the
+    /// spectral table's recorded spec), Rec.709 for a Fourier BSDF and a MERL file.
+    material::ColorSpace colorspace() const;
     /// Directional-hemispherical reflectance at theta_i (radians): the model's, the Fourier BSDF's
     /// by formats::directional_albedo's quadrature of evaluate, or the table's by lookup.
     model::Rgb albedo(double theta_i) const;
 };
 
 /// RGB of a spectral table: the CIE 1931 / D65 weights of material::SpectralSet::integrating for
-/// its wavelengths, linear Rec.709 (formats::read_table's converter).
+/// its wavelengths (piecewise-linear between them), in the colour space of the spec the table
+/// records (its "colorspace"; linear Rec.709 without one): formats::read_table's converter.
+/// Where the service solved only some of a spectrum's wavelengths this differs from the RGB
+/// table by the interpolation (within the spec's tolerance); with every wavelength solved it is
+/// the RGB table's colour.
 formats::SpectralToRgb spectral_to_rgb();
 
 /// A spec file (.json: the material named `material`, or its only one) or a table file. `recorded`

@@ -4,6 +4,7 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/threads.h>
+#include <brdf/material/colour.h>
 #include <brdf/rte/cl_solver.h>
 
 #include <chrono>
@@ -14,19 +15,18 @@
 namespace brdf::model {
 namespace {
 
-// What the pipeline computes so far: layer stacks under no, a smooth or a rough interface, in
-// Rec.709, into MERL and EXR tables. The spec format already describes more (docs/spec.md); until that lands, such
-// a spec is refused here, naming what is missing, instead of being computed as something else.
+// What the pipeline computes so far: layer stacks under no, a smooth or a rough interface, in any
+// of the colour spaces, into MERL, EXR and spectral EXR tables. The spec format already describes
+// more (docs/spec.md); until that lands, such a spec is refused here, naming what is missing,
+// instead of being computed as something else.
 void check_supported(const material::MaterialSpec& spec) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     const auto refuse = [&](const std::string& what) {
         throw InputError(cat(who, ": ", what, " not supported yet"));
     };
     if (spec.layers.empty()) refuse("a material without layers is");
-    if (spec.colorspace != material::ColorSpace::Rec709)
-        refuse("colour spaces other than \"rec709\" are");
     for (const std::string& f : spec.outputs)
-        if (f != "merl" && f != "exr") refuse(cat("the output \"", f, "\" is"));
+        if (f != "merl" && f != "exr" && f != "spectral_exr") refuse(cat("the output \"", f, "\" is"));
     if (spec.model == material::Model::Dipole && (spec.layers.size() > 1 || !spec.layers[0].semi_infinite()))
         throw InputError(cat(who, ": \"model\": \"dipole\" is a semi-infinite comparison model; it has no films "
                                   "or stacks (remove \"model\" or the thickness)"));
@@ -293,7 +293,7 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
                 throw InputError(cat(who, ": layers[", k, "]: an analytic medium in a stack with binder layers is "
                                           "solved per wavelength and needs one (grey) albedo, not [r, g, b]"));
         const auto wavelengths = spec.spectrum.wavelengths_nm();
-        const auto rgb = spec.spectrum.rgb_weights();
+        const auto rgb = spec.spectrum.rgb_weights(spec.colorspace);
         optics.resize(wavelengths.size());
         // Wavelengths are independent: split them over the cores.
         parallel_for(static_cast<int>(wavelengths.size()), available_cpus(),
@@ -394,70 +394,67 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
 }
 
 void fit_into_gamut(SolvedMaterial& m) {
-    // A saturated pigment (CdS yellow, vermilion) reflects a colour outside the Rec.709 gamut: one
-    // channel's albedo goes negative, another above 1. Renderers cannot use either, and clamping
-    // per cell would break reciprocity and smoothness. Instead every colour weight is moved towards
-    // its luminance by the same factor s (w' = Y + s (w - Y)): a linear map, so the table stays
-    // exact in luminance and keeps its angular shape, with s as large as keeps the total
-    // reflectance (diffuse + mirror) in [0, 1] at the report's incidence angles.
-    const Rgb luma{0.2126, 0.7152, 0.0722};
-    std::vector<std::array<double, 4>> reflectance; // per sample: at 0, 30, 60, 80 degrees
+    // A saturated pigment (CdS yellow, vermilion) reflects a colour outside a space's gamut: a
+    // channel goes negative, or a reflectance above 1. material::fit_into_gamut (docs/colour.md,
+    // "The gamut fit") scales every colour weight's chroma about its luminance by one factor: a
+    // linear map, so the tables keep their angular shape, reciprocity and luminance. It must see
+    // the values where the colour is hardest to hold: the diffuse BRDF at grazing incidence and
+    // exitance on both azimuth sides (where the diffuse part is smallest relative to its colour),
+    // the diffuse albedo alone and the mirror alone (a yellow-green mixture's blue diffuse albedo
+    // went negative while diffuse + mirror stayed positive), and diffuse + mirror, which must stay
+    // within [0, 1].
+    material::GamutFitInput in;
+    in.material = m.spec.name;
+    in.space = m.spec.colorspace;
+    const double mus[] = {1.0, 0.7071, 0.2588, 0.0872, 0.0087}; // 0, 45, 75, 85, 89.5 degrees
+    const double phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
+    const double reflectance_mus[] = {1.0, std::cos(std::numbers::pi / 6.0), 0.5, std::cos(4.0 * std::numbers::pi / 9.0)};
     for (const WavelengthSolution& s : m.samples) {
-        std::array<double, 4> r{};
-        const double angles[4] = {0.0, 30.0, 60.0, 80.0};
-        for (int a = 0; a < 4; ++a) {
-            const double mu = std::cos(angles[a] * std::numbers::pi / 180.0);
-            r[a] = s.reflection.albedo(mu) + s.reflection.mirror(mu);
+        in.weights.push_back(s.weight);
+        for (double mi : mus)
+            for (double mo : mus)
+                for (double phi : phis)
+                    in.brdf.push_back(s.dipole ? s.dipole->brdf(mi, mo, phi) : s.reflection.brdf(mi, mo, phi));
+        for (double mu : reflectance_mus) {
+            const double diffuse = s.dipole ? s.dipole->albedo(mu) : s.reflection.albedo(mu);
+            const double mirror = s.dipole ? s.dipole->mirror(mu) : s.reflection.mirror(mu);
+            in.brdf.push_back(diffuse);
+            in.brdf.push_back(mirror);
+            in.reflectance.push_back(diffuse + mirror);
         }
-        reflectance.push_back(r);
     }
-    const auto channel = [&](double scale, int a, int c) {
-        double v = 0.0;
-        for (std::size_t k = 0; k < m.samples.size(); ++k) {
-            const Rgb& w = m.samples[k].weight;
-            const double y = luma[0] * w[0] + luma[1] * w[1] + luma[2] * w[2];
-            v += (y + scale * (w[c] - y)) * reflectance[k][a];
-        }
-        return v;
-    };
-    const auto fits = [&](double scale) {
-        for (int a = 0; a < 4; ++a)
-            for (int c = 0; c < 3; ++c) {
-                const double v = channel(scale, a, c);
-                if (v < -1e-9 || v > 1.0 + 1e-9) return false; // energy is conserved to ~1e-12, not exactly
-            }
-        return true;
-    };
-    if (fits(1.0)) return;
-    double lo = 0.0, hi = 1.0; // s = 0 is grey: in gamut whenever the luminance is
-    for (int it = 0; it < 50; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (fits(mid) ? lo : hi) = mid;
+    in.probe_count = std::size(mus) * std::size(mus) * std::size(phis) + 2 * std::size(reflectance_mus);
+    in.reflectance_count = std::size(reflectance_mus);
+    const material::GamutFit fit = material::fit_into_gamut(in); // checks the luminance is kept
+    for (std::size_t k = 0; k < m.samples.size(); ++k) m.samples[k].weight = fit.weights[k];
+    m.gamut_scale = fit.scale;
+    m.gamut_clipped = fit.clipped;
+    if (!fit.warning.empty()) {
+        log::warn(fit.warning);
+        m.warnings.push_back(fit.warning);
     }
-    for (WavelengthSolution& s : m.samples) {
-        const double y = luma[0] * s.weight[0] + luma[1] * s.weight[1] + luma[2] * s.weight[2];
-        for (double& w : s.weight) w = y + lo * (w - y);
-    }
-    m.gamut_scale = lo;
-    log::info(m.spec.name, ": colour outside the Rec.709 gamut; chroma scaled by ", lo, " (luminance kept)");
 }
 
 Rgb SolvedMaterial::brdf(double theta_i, double theta_o, double phi) const {
     const double mi = std::cos(theta_i), mo = std::cos(theta_o);
     if (mi <= 0.0 || mo <= 0.0) return {0.0, 0.0, 0.0};
-    return weighted(samples, [&](const WavelengthSolution& s) {
+    // No output holds a negative value (docs/colour.md): what the gamut fit leaves (its clipped
+    // case, directions between its probes) and a series' rounding below 0 are clamped.
+    return material::clip_negative(weighted(samples, [&](const WavelengthSolution& s) {
         return s.dipole ? s.dipole->brdf(mi, mo, phi) : s.reflection.brdf(mi, mo, phi);
-    });
+    }));
 }
 
 Rgb SolvedMaterial::albedo(double theta_i) const {
     const double mi = std::cos(theta_i);
-    return weighted(samples, [&](const WavelengthSolution& s) { return s.dipole ? s.dipole->albedo(mi) : s.reflection.albedo(mi); });
+    return material::clip_negative(weighted(
+        samples, [&](const WavelengthSolution& s) { return s.dipole ? s.dipole->albedo(mi) : s.reflection.albedo(mi); }));
 }
 
 Rgb SolvedMaterial::mirror(double theta_i) const {
     const double mi = std::cos(theta_i);
-    return weighted(samples, [&](const WavelengthSolution& s) { return s.dipole ? s.dipole->mirror(mi) : s.reflection.mirror(mi); });
+    return material::clip_negative(weighted(
+        samples, [&](const WavelengthSolution& s) { return s.dipole ? s.dipole->mirror(mi) : s.reflection.mirror(mi); }));
 }
 
 } // namespace brdf::model

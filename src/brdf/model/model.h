@@ -1,6 +1,6 @@
 #pragma once
 // A material solved: per wavelength (or per RGB channel of an analytic medium) the optics and the
-// reflection function, with the colour weights that turn spectra into linear Rec.709 RGB. Evaluation
+// reflection function, with the colour weights that turn spectra into RGB of the spec's colour space. Evaluation
 // at exact angles (brdftool eval / albedo on a spec) and the table fill both start here.
 
 #include <brdf/material/spec.h>
@@ -59,9 +59,16 @@ struct SolvedMaterial {
     /// hardest wavelengths: the error estimate of the solve (0 when not checked).
     double error_estimate = 0.0;
     double gamut_scale = 1.0; ///< chroma factor applied by fit_into_gamut (1: colour already in gamut)
+    /// True when the chroma scaling alone could not bring the colour into the space and the
+    /// outputs clamp what is left (material::GamutFit::clipped).
+    bool gamut_clipped = false;
+    /// What the solve did to the colour, one line each (the gamut fit's warning: material, colour
+    /// space, factor, what keeps the colour); logged with log::warn and kept for the report.
+    std::vector<std::string> warnings;
     StageSeconds seconds;
 
-    /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, docs/design.md conventions).
+    /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, docs/design.md
+    /// conventions), in the spec's colour space; these three never return a negative channel.
     Rgb brdf(double theta_i, double theta_o, double phi) const;
     /// Directional-hemispherical reflectance of the diffuse part.
     Rgb albedo(double theta_i) const;
@@ -88,8 +95,10 @@ struct MaterialOptics {
 };
 MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& settings);
 
-/// Brings an out-of-gamut colour into linear Rec.709 by scaling every colour weight's chroma about
-/// its luminance (same factor for all wavelengths: the map stays linear); sets gamut_scale.
+/// Brings an out-of-gamut colour into the spec's colour space by scaling every colour weight's chroma
+/// about its luminance (material::fit_into_gamut: the same factor for all wavelengths, so the map
+/// stays linear, and the luminance checked unchanged); sets gamut_scale and gamut_clipped, and adds
+/// its warning to `warnings` and stderr when it changed anything.
 void fit_into_gamut(SolvedMaterial& material);
 
 /// The one entry that solves: every stack (one per sample) with the settings on the device. The

@@ -50,32 +50,43 @@ double lerp_table(const double* table, int points, double x) { // x in [0, 1]
 
 } // namespace
 
-FillInputs prepare_fill(const SolvedMaterial& material) {
-    FillInputs in;
+namespace {
+
+// The Nystrom grids of every sample at the table's zenith angles: the expensive part of
+// prepare_fill, and independent of the colour weights.
+std::vector<rte::OrderGrid> order_grids(const SolvedMaterial& material) {
     const int e = material.settings.table_grid;
-    in.grid = e;
     std::vector<double> mu(static_cast<std::size_t>(e));
     for (int a = 0; a < e; ++a) mu[a] = std::cos(0.5 * std::numbers::pi * a / (e - 1));
-    for (const WavelengthSolution& s : material.samples) in.orders = std::max(in.orders, s.reflection.orders());
-    in.fourier.assign(static_cast<std::size_t>(in.orders) * 3 * e * e, 0.0);
-    in.phase_points = phase_table_points;
-    in.fresnel_points = fresnel_table_points;
-    // The Nystrom grids are the expensive part and independent per sample: one thread per core.
+    // Independent per sample: one thread per core.
     std::vector<rte::OrderGrid> grids(material.samples.size());
     parallel_for(static_cast<int>(material.samples.size()), available_cpus(),
                  [&](int k) { grids[k] = material.samples[k].reflection.order_grid(mu); });
+    return grids;
+}
+
+// The fill inputs of the samples `which` with colour weights `weights` (one per entry of `which`).
+FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<rte::OrderGrid>& grids,
+                         const std::vector<std::size_t>& which, const std::vector<Rgb>& weights) {
+    FillInputs in;
+    const int e = material.settings.table_grid;
+    in.grid = e;
+    for (std::size_t k : which) in.orders = std::max(in.orders, material.samples[k].reflection.orders());
+    in.fourier.assign(static_cast<std::size_t>(in.orders) * 3 * e * e, 0.0);
+    in.phase_points = phase_table_points;
+    in.fresnel_points = fresnel_table_points;
     const double inv_sqrt_pi = 1.0 / std::sqrt(std::numbers::pi);
-    for (std::size_t k = 0; k < material.samples.size(); ++k) {
-        const WavelengthSolution& s = material.samples[k];
-        const rte::Reflection& r = s.reflection;
-        const rte::OrderGrid& g = grids[k];
+    for (std::size_t j = 0; j < which.size(); ++j) {
+        const rte::Reflection& r = material.samples[which[j]].reflection;
+        const rte::OrderGrid& g = grids[which[j]];
+        const Rgb& weight = weights[j];
         for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
             const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::numbers::inv_pi;
             for (int c = 0; c < 3; ++c) {
-                if (s.weight[c] == 0.0) continue;
+                if (weight[c] == 0.0) continue;
                 double* dst = &in.fourier[((static_cast<std::size_t>(m) * 3 + c) * e) * e];
                 for (int o = 0; o < e; ++o)
-                    for (int i = 0; i < e; ++i) dst[o * e + i] += s.weight[c] * factor * g.orders[m](o, i);
+                    for (int i = 0; i < e; ++i) dst[o * e + i] += weight[c] * factor * g.orders[m](o, i);
             }
         }
         if (r.setup().stack.top == rte::Top::Rough) continue; // no TMS under a rough surface
@@ -90,11 +101,42 @@ FillInputs prepare_fill(const SolvedMaterial& material) {
             for (int p = 0; p < fresnel_table_points; ++p)
                 in.transmission.push_back(r.path_factor(layer, static_cast<double>(p) / (fresnel_table_points - 1)) *
                                           inv_sqrt_pi);
-            for (int c = 0; c < 3; ++c) in.weight.push_back(s.weight[c]);
+            for (int c = 0; c < 3; ++c) in.weight.push_back(weight[c]);
             ++in.samples;
         }
     }
     return in;
+}
+
+} // namespace
+
+FillInputs prepare_fill(const SolvedMaterial& material) {
+    const std::vector<rte::OrderGrid> grids = order_grids(material);
+    std::vector<std::size_t> all(material.samples.size());
+    std::vector<Rgb> weights;
+    for (std::size_t k = 0; k < all.size(); ++k) {
+        all[k] = k;
+        weights.push_back(material.samples[k].weight);
+    }
+    return assemble_fill(material, grids, all, weights);
+}
+
+void for_each_spectral_fill(const SolvedMaterial& material, const std::function<void(const SpectralFill&)>& fill) {
+    const std::vector<rte::OrderGrid> grids = order_grids(material); // once for every group
+    for (std::size_t first = 0; first < material.samples.size(); first += 3) {
+        SpectralFill group;
+        std::vector<std::size_t> which;
+        std::vector<Rgb> weights;
+        for (int c = 0; c < 3 && first + c < material.samples.size(); ++c) {
+            which.push_back(first + c);
+            Rgb one_hot{0.0, 0.0, 0.0};
+            one_hot[c] = 1.0;
+            weights.push_back(one_hot);
+            group.sample[c] = static_cast<int>(first + c);
+        }
+        group.inputs = assemble_fill(material, grids, which, weights);
+        fill(group);
+    }
 }
 
 Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi) {

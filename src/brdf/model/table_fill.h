@@ -12,6 +12,8 @@
 #include <brdf/model/model.h>
 #include <formats/table.h>
 
+#include <array>
+#include <functional>
 #include <vector>
 
 namespace brdf::model {
@@ -37,6 +39,20 @@ struct FillInputs {
 };
 
 FillInputs prepare_fill(const SolvedMaterial& material);
+
+/// The fill of up to three solved samples (wavelengths) at once, one in each channel: channel c of
+/// the table filled from `inputs` is the BRDF of material.samples[sample[c]] alone (weight 1, the
+/// others 0), or unused where sample[c] < 0. The same cells, interpolation and single scattering
+/// as the RGB fill, so a spectral table is filled by the RGB code paths (CPU and OpenCL) in
+/// ceil(S / 3) passes over the cells, each with only its own samples' orders and phase tables.
+struct SpectralFill {
+    FillInputs inputs;
+    std::array<int, 3> sample{-1, -1, -1};
+};
+/// Calls `fill` with the groups of every solved sample, in order, one at a time (each group's
+/// inputs are assembled when its turn comes: they hold a copy of its Fourier grids); the Nystrom
+/// grids are computed once for all.
+void for_each_spectral_fill(const SolvedMaterial& material, const std::function<void(const SpectralFill&)>& fill);
 
 /// BRDF of one direction triple (radians) from the fill inputs: the per-cell computation.
 Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi);

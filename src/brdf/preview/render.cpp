@@ -1,5 +1,7 @@
 #include <brdf/preview/render.h>
 
+#include <brdf/material/colour.h>
+
 #include <brdf/core/threads.h>
 
 #include <brdf/core/error.h>
@@ -290,6 +292,20 @@ Image render_sphere(const BrdfFunction& brdf_in, const RenderOptions& o) {
         }
     });
     return image;
+}
+
+BrdfFunction in_rec709(BrdfFunction brdf, material::ColorSpace space) {
+    if (space == material::ColorSpace::Rec709 || !brdf) return brdf;
+    return [brdf = std::move(brdf), m = material::rgb_to_rec709_matrix(space)](double ti, double to, double phi) {
+        return material::clip_negative(material::apply_matrix(m, brdf(ti, to, phi)));
+    };
+}
+
+MirrorFunction in_rec709(MirrorFunction mirror, material::ColorSpace space) {
+    if (space == material::ColorSpace::Rec709 || !mirror) return mirror;
+    return [mirror = std::move(mirror), m = material::rgb_to_rec709_matrix(space)](double theta) {
+        return material::clip_negative(material::apply_matrix(m, mirror(theta)));
+    };
 }
 
 } // namespace brdf::preview

@@ -16,6 +16,7 @@
 // View space: x to the right, y up, z towards the viewer; the view direction (surface to eye) is +z
 // everywhere.
 
+#include <brdf/material/colour_space.h>
 #include <brdf/preview/image.h>
 
 #include <functional>
@@ -65,6 +66,14 @@ struct RenderOptions {
     int phi_nodes = 13;
     int threads = 0; ///< 0: one per hardware thread
 };
+
+/// `brdf`, whose values are RGB in `space`, as linear Rec.709, the space previews are shaded and
+/// displayed in (material::rgb_to_rec709_matrix: white stays white). Colours outside Rec.709
+/// (an ACEScg cadmium yellow) get negative channels there, which a display cannot show: they are
+/// clamped to 0. The function itself for Rec.709.
+BrdfFunction in_rec709(BrdfFunction brdf, material::ColorSpace space);
+/// The same for a mirror reflectance.
+MirrorFunction in_rec709(MirrorFunction mirror, material::ColorSpace space);
 
 /// Throws InputError naming the first option out of range.
 void check_options(const RenderOptions& options);

@@ -12,7 +12,10 @@
 #include <brdf/model/model.h>
 #include <brdf/service/report.h>
 #include <brdf/model/cl_table_fill.h>
+#include <brdf/material/colour.h>
+#include <brdf/model/table_fill.h>
 #include <formats/exr/exr.h>
+#include <formats/exr/spectral_exr.h>
 #include <formats/merl/merl.h>
 
 #include <algorithm>
@@ -36,7 +39,47 @@ std::vector<std::string> formats_for(const material::MaterialSpec& spec, const C
 }
 
 fs::path output_path(const fs::path& dir, const std::string& name, const std::string& format) {
+    if (format == "spectral_exr") return dir / (name + ".spectral.exr");
     return dir / (name + (format == "merl" ? ".binary" : ".exr"));
+}
+
+/// The spectral output refuses what has no spectrum before anything is solved.
+void check_spectral_output(const material::MaterialSpec& spec, const std::vector<std::string>& formats) {
+    if (std::find(formats.begin(), formats.end(), "spectral_exr") == formats.end()) return;
+    if (!spec.layers.empty() && spec.layers[0].medium)
+        throw InputError(cat(spec.source.empty() ? spec.name : spec.source, ": material '", spec.name,
+                             "': the output \"spectral_exr\" needs wavelengths, and an analytic "
+                             "\"medium\" is given per RGB channel; use \"merl\" or \"exr\""));
+}
+
+/// NAME.spectral.exr (formats/exr/spectral_exr.h, the JCGT 2021 layout): one plane per solved
+/// wavelength, the same cells as the RGB tables. Each plane is the RGB fill with a one-hot colour
+/// weight, three wavelengths per pass (model::for_each_spectral_fill), on the same device.
+void write_spectral_table(const fs::path& path, const model::SolvedMaterial& solved, const std::string& spec_json,
+                          model::Device device) {
+    std::vector<double> wavelengths;
+    for (const model::WavelengthSolution& s : solved.samples) wavelengths.push_back(s.wavelength_nm);
+    formats::SpectralTable table(wavelengths);
+    table.spec = spec_json;
+    table.generator = std::string(generator_string);
+    const auto t0 = std::chrono::steady_clock::now();
+    int passes = 0;
+    model::for_each_spectral_fill(solved, [&](const model::SpectralFill& group) {
+        ++passes;
+        const formats::BrdfTable filled = model::fill_table(group.inputs, device);
+        for (int c = 0; c < 3; ++c) {
+            if (group.sample[c] < 0) continue;
+            std::vector<float>& plane = table.planes[static_cast<std::size_t>(group.sample[c])];
+            for (std::size_t cell = 0; cell < plane.size(); ++cell)
+                plane[cell] = filled.has_data(cell) ? static_cast<float>(filled.channels[c][cell])
+                                                    : formats::SpectralTable::no_data;
+        }
+    });
+    const auto t1 = std::chrono::steady_clock::now();
+    formats::write_spectral_exr(path, table);
+    log::info(solved.spec.name, ": spectral table of ", wavelengths.size(), " wavelengths filled in ", passes,
+              " passes (", std::chrono::duration<double>(t1 - t0).count(), " s), written in ",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count(), " s");
 }
 
 /// The --accuracy override as a spec overlay (material::parse_specs): {"accuracy": "draft"} or
@@ -154,6 +197,7 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
         return outcome;
     }
     check_results_owner(spec, old_report, options);
+    check_spectral_output(spec, formats);
     progress.stage("solve");
     // Tables hold float32 (EXR) values at bin centres, filled by interpolating a Fourier grid whose
     // error is about 1e-6 at the finest grid: solving tighter than that changes no table a renderer
@@ -168,6 +212,7 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     formats::BrdfTable table = model::fill_table(model::prepare_fill(solved), options.device);
     table.spec = spec.resolved.dump();
     table.generator = std::string(generator_string);
+    table.colorspace = std::string(material::to_string(spec.colorspace)); // EXR chromaticities follow
     solved.seconds.table = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     progress.stage("write");
     t = std::chrono::steady_clock::now();
@@ -182,8 +227,9 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     std::vector<std::future<void>> writes;
     for (const std::string& f : formats) {
         const fs::path path = output_path(options.output_dir, spec.name, f);
-        writes.push_back(std::async(std::launch::async, [path, f, &table] {
+        writes.push_back(std::async(std::launch::async, [path, f, &table, &solved, &options] {
             if (f == "merl") formats::write_merl(path, table);
+            else if (f == "spectral_exr") write_spectral_table(path, solved, table.spec, options.device);
             else formats::write_exr(path, table);
         }));
         outcome.outputs.push_back(path);

@@ -3,6 +3,7 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/version.h>
+#include <brdf/material/colour.h>
 #include <brdf/model/film.h>
 
 #include <atomic>
@@ -69,6 +70,10 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
         if (!pigments.empty()) entry["pigments"] = pigments;
         samples.push_back(entry);
     }
+    // The spec's warnings, then the solve's (the gamut fit: chroma scaled or clipped, and what
+    // keeps the colour).
+    json warnings = m.spec.warnings;
+    for (const std::string& w : m.warnings) warnings.push_back(w);
     json albedo = json::array();
     for (double deg : {0.0, 30.0, 60.0, 80.0}) {
         const double t = deg * std::numbers::pi / 180.0;
@@ -99,11 +104,14 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
                    "add their binning error"}}},
         {"wavelengths", samples},
         {"wavelengths_interpolated", m.wavelengths_interpolated},
+        {"colorspace", std::string(material::to_string(m.spec.colorspace))},
+        {"colorspace_name", std::string(material::long_name(m.spec.colorspace))},
         {"gamut_scale", m.gamut_scale},
+        {"gamut_clipped", m.gamut_clipped},
         {"directional_albedo", albedo},
         {"seconds", {{"optics", m.seconds.optics}, {"solve", m.seconds.solve}, {"table", m.seconds.table},
                      {"write", m.seconds.write}}},
-        {"warnings", m.spec.warnings},
+        {"warnings", warnings},
     };
     if (const auto film = model::film_report(m)) {
         json per_wavelength = json::array();
