@@ -32,7 +32,7 @@ void check_supported(const material::MaterialSpec& spec) {
     if (spec.colorspace != material::ColorSpace::Rec709)
         refuse("colour spaces other than \"rec709\" are");
     for (const std::string& f : spec.outputs)
-        if (f != "merl" && f != "exr") refuse(cat("the output \"", f, "\" is"));
+        if (f != "merl" && f != "exr" && f != "fourier" && f != "rgl") refuse(cat("the output \"", f, "\" is"));
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {

@@ -10,6 +10,7 @@
 #include <brdf/core/version.h>
 #include <brdf/material/spec.h>
 #include <brdf/model/model.h>
+#include <brdf/service/renderer_outputs.h>
 #include <brdf/service/report.h>
 #include <brdf/model/cl_table_fill.h>
 #include <formats/exr/exr.h>
@@ -36,6 +37,8 @@ std::vector<std::string> formats_for(const material::MaterialSpec& spec, const C
 }
 
 fs::path output_path(const fs::path& dir, const std::string& name, const std::string& format) {
+    if (format == "fourier") return dir / (name + ".fourier.bsdf");
+    if (format == "rgl") return dir / (name + ".rgl.bsdf");
     return dir / (name + (format == "merl" ? ".binary" : ".exr"));
 }
 
@@ -165,7 +168,8 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     model::SolvedMaterial solved = model::solve_material(spec, options.device, model::settings_for(tolerance));
     progress.stage("table");
     auto t = std::chrono::steady_clock::now();
-    formats::BrdfTable table = model::fill_table(model::prepare_fill(solved), options.device);
+    const model::FillInputs fill = model::prepare_fill(solved);
+    formats::BrdfTable table = model::fill_table(fill, options.device);
     table.spec = spec.resolved.dump();
     table.generator = std::string(generator_string);
     solved.seconds.table = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -182,8 +186,10 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     std::vector<std::future<void>> writes;
     for (const std::string& f : formats) {
         const fs::path path = output_path(options.output_dir, spec.name, f);
-        writes.push_back(std::async(std::launch::async, [path, f, &table] {
+        writes.push_back(std::async(std::launch::async, [path, f, &table, &solved, &fill] {
             if (f == "merl") formats::write_merl(path, table);
+            else if (f == "fourier") write_fourier_output(path, solved, fill, renderer_resolution(solved.settings.tolerance));
+            else if (f == "rgl") write_rgl_output(path, solved, fill, renderer_resolution(solved.settings.tolerance));
             else formats::write_exr(path, table);
         }));
         outcome.outputs.push_back(path);
