@@ -34,7 +34,7 @@ int run_render(RenderFlags& f) {
     if (source.model && source.model->spec.surface.kind == material::Surface::Smooth) {
         const model::SolvedMaterial& m = *source.model;
         f.options.mirror = [&m](double theta) { return m.mirror(theta); };
-    } else if (source.table) {
+    } else if (!source.model) {
         log::info(f.input, ": a table holds no mirror reflection; rendering the diffuse part only");
     }
     const preview::Image image = preview::render_sphere(
@@ -50,7 +50,7 @@ Subcommand add_render_command(CLI::App& root) {
     auto flags = std::make_shared<RenderFlags>();
     preview::RenderOptions& o = flags->options;
     CLI::App* app = root.add_subcommand("render", "Preview image: a sphere of the material under a directional light");
-    app->add_option("input", flags->input, "material spec (.json) or table (.binary, .exr)")->required();
+    app->add_option("input", flags->input, "material spec (.json) or table (.binary, .exr, Fourier .bsdf, .rgl.bsdf)")->required();
     app->add_option("-o,--output", flags->output, "image to write: .png (tone-mapped, sRGB) or .exr (linear float)")
         ->required();
     app->add_option("--size", o.size, "width and height in pixels, [8, 8192]")->capture_default_str();
