@@ -169,9 +169,13 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     progress.stage("table");
     auto t = std::chrono::steady_clock::now();
     const model::FillInputs fill = model::prepare_fill(solved);
-    formats::BrdfTable table = model::fill_table(fill, options.device);
-    table.spec = spec.resolved.dump();
-    table.generator = std::string(generator_string);
+    // The MERL/EXR table only when one of them is written (the renderer formats use `fill`).
+    formats::BrdfTable table;
+    if (std::any_of(formats.begin(), formats.end(), [](const std::string& f) { return f == "merl" || f == "exr"; })) {
+        table = model::fill_table(fill, options.device);
+        table.spec = spec.resolved.dump();
+        table.generator = std::string(generator_string);
+    }
     solved.seconds.table = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     progress.stage("write");
     t = std::chrono::steady_clock::now();
