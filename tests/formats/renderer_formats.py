@@ -130,8 +130,6 @@ def render(args):
     })
     mitsuba_image = np.array(mi.render(scene), dtype=np.float64)[:, :, :3]
     reference = np.array(mi.Bitmap(ours), dtype=np.float64)[:, :, :3]
-    if args.flip_x:
-        mitsuba_image = mitsuba_image[:, ::-1, :]
     # Pixels whose whole footprint is on the sphere (pixel centre within radius - 1 pixel).
     radius = 0.5 * size * (1.0 - 2.0 * margin)
     y, x = np.mgrid[0:size, 0:size]
@@ -177,7 +175,6 @@ def main():
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--median", type=float, default=0.01)
     parser.add_argument("--p95", type=float, default=0.03)
-    parser.add_argument("--flip-x", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--gallery", help="write the two images and the metric here")
     args = parser.parse_args()
     return setup(args) if args.mode == "setup" else render(args)
