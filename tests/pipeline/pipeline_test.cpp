@@ -163,8 +163,12 @@ TEST(Pipeline, RefusesWhatItCannotComputeYet) {
               "supported yet");
     EXPECT_EQ(refusal(R"({"name": "c", "medium": {"albedo": 0.9}, "colorspace": "acescg"})"),
               "test.json: colour spaces other than \"rec709\" are not supported yet");
-    EXPECT_EQ(refusal(R"({"name": "o", "medium": {"albedo": 0.9}, "outputs": ["merl", "rgl"]})"),
-              "test.json: the output \"rgl\" is not supported yet");
+    EXPECT_EQ(refusal(R"({"name": "o", "medium": {"albedo": 0.9}, "outputs": ["merl", "spectral_exr"]})"),
+              "test.json: the output \"spectral_exr\" is not supported yet");
+    // The renderer formats are computed.
+    EXPECT_EQ(refusal(R"({"name": "o", "medium": {"albedo": 0.9}, "accuracy": "draft",
+                          "outputs": ["fourier", "rgl"]})"),
+              "no InputError");
     // The defaults written out are computed as before.
     EXPECT_EQ(refusal(R"({"name": "d", "medium": {"albedo": 0.9}, "colorspace": "rec709",
                           "accuracy": "draft", "spectrum": "rgb"})"),
