@@ -6,6 +6,8 @@
 #include <formats/file_io.h>
 #include <formats/fourier/fourier.h>
 #include <formats/merl/merl.h>
+#include <formats/rgl/rgl_eval.h>
+#include <brdf/core/threads.h>
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
@@ -138,6 +140,42 @@ BrdfTable read_table(const std::filesystem::path& path, const SpectralToRgb& spe
     return read_table(path, detect_format(path), spectral_to_rgb);
 }
 
+BrdfTable tabulate_rgl(const RglBsdf& bsdf, const std::string& what, const SpectralToRgb& spectral_to_rgb) {
+    if (bsdf.spectral() && !spectral_to_rgb)
+        throw InputError(cat(what, ": a spectral RGL file (", bsdf.wavelengths.size(),
+                             " wavelengths) needs colour weights to become RGB"));
+    const RglEvaluator evaluator(bsdf);
+    // One value per channel and cell: R, G, B, or the file's wavelengths (then weighted to RGB).
+    const std::size_t channels = evaluator.channels();
+    std::vector<std::vector<float>> planes(channels, std::vector<float>(theta_h_bins * theta_d_bins * phi_d_bins, 0.0f));
+    parallel_for(theta_h_bins, 0, [&](int i) {
+        for (int j = 0; j < theta_d_bins; ++j)
+            for (int k = 0; k < phi_d_bins; ++k) {
+                const std::size_t cell = cell_index(i, j, k);
+                if (cell_below_horizon(cell)) continue;
+                const DirectionPair d = to_directions(theta_h_centre(i), theta_d_centre(j), phi_d_centre(k));
+                const std::vector<double> v = evaluator.brdf(d.wi, d.wo);
+                // pbrt-v4 clamps negative samples; a table holds none.
+                for (std::size_t c = 0; c < channels; ++c) planes[c][cell] = static_cast<float>(std::max(0.0, v[c]));
+            }
+    });
+    BrdfTable table;
+    if (bsdf.spectral()) {
+        SpectralTable spectral(std::vector<double>(bsdf.wavelengths.begin(), bsdf.wavelengths.end()));
+        for (std::size_t c = 0; c < channels; ++c)
+            for (std::size_t cell = 0; cell < planes[c].size(); ++cell)
+                if (!cell_below_horizon(cell)) spectral.planes[c][cell] = planes[c][cell];
+        table = spectral_to_rgb(spectral);
+    } else {
+        for (std::size_t cell = 0; cell < planes[0].size(); ++cell)
+            if (!cell_below_horizon(cell)) table.set(cell, {planes[0][cell], planes[1][cell], planes[2][cell]});
+    }
+    const RglProvenance p = rgl_provenance(bsdf);
+    table.spec = p.spec;
+    table.generator = p.generator;
+    return table;
+}
+
 BrdfTable read_table(const std::filesystem::path& path, TableFormat format,
                      const SpectralToRgb& spectral_to_rgb) {
     switch (format) {
@@ -155,7 +193,7 @@ BrdfTable read_table(const std::filesystem::path& path, TableFormat format,
     case TableFormat::Fourier:
         return tabulate_fourier(read_fourier_bsdf(path));
     case TableFormat::RglTensor:
-        throw InputError(cat(display(path), ": RGL tensor files are not read by this version"));
+        return tabulate_rgl(read_rgl_bsdf(path), display(path), spectral_to_rgb);
     }
     throw InputError(cat(display(path), ": unsupported table format"));
 }

@@ -10,17 +10,19 @@
 #include <filesystem>
 #include <functional>
 #include <span>
+#include <string>
 
 namespace brdf::formats {
 
 struct SpectralTable;
+struct RglBsdf;
 
 enum class TableFormat {
     Merl,        ///< MERL .binary (formats/merl)
     Exr,         ///< OpenEXR RGB table (formats/exr/exr.h)
     SpectralExr, ///< OpenEXR spectral table, JCGT 2021 layout (formats/exr/spectral_exr.h)
     Fourier,     ///< pbrt-v3 Fourier BSDF, SCATFUN v1 (formats/fourier)
-    RglTensor,   ///< RGL tensor file of Mitsuba 3 / pbrt-v4 `measured` (formats/rgl, not read here yet)
+    RglTensor,   ///< RGL tensor file of Mitsuba 3 / pbrt-v4 `measured` (formats/rgl)
 };
 
 /// "MERL .binary", "OpenEXR", "spectral OpenEXR", "pbrt-v3 Fourier BSDF", "RGL tensor".
@@ -48,12 +50,17 @@ using SpectralToRgb = std::function<BrdfTable(const SpectralTable&)>;
 
 /// The table a file holds, whatever its format (detect_format): MERL and OpenEXR read as they are;
 /// a Fourier BSDF evaluated at the cell centres (tabulate_fourier); a spectral table through
-/// `spectral_to_rgb` (InputError naming the path without it). An RGL tensor file is an InputError
-/// (not read yet).
+/// `spectral_to_rgb` (InputError naming the path without it); an RGL tensor file evaluated at the
+/// cell centres as Mitsuba 3 evaluates it (tabulate_rgl).
 BrdfTable read_table(const std::filesystem::path& path, const SpectralToRgb& spectral_to_rgb = {});
 /// The same for a format detect_format already gave (so that a misnamed file warns once).
 BrdfTable read_table(const std::filesystem::path& path, TableFormat format,
                      const SpectralToRgb& spectral_to_rgb = {});
+/// The table of an RGL BSDF at the bin centres of the MERL layout: formats::RglEvaluator::brdf
+/// (Mitsuba 3's `measured`), negative samples clamped to 0 as pbrt-v4 clamps them; a spectral file
+/// through `spectral_to_rgb` (InputError starting with `what` without it). Provenance from the
+/// description when it is ours (rgl_provenance).
+BrdfTable tabulate_rgl(const RglBsdf& bsdf, const std::string& what, const SpectralToRgb& spectral_to_rgb = {});
 /// write_merl or write_exr by extension (checked before anything is written); other formats are an
 /// InputError (they are made from the model, not from a table).
 void write_table(const std::filesystem::path& path, const BrdfTable& table);

@@ -3,6 +3,8 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <numbers>
 
@@ -130,6 +132,17 @@ double RglEvaluator::sample_factor(const Vec3& wi, const Vec3& wo) const {
 rgl::Point2f RglEvaluator::sample_point(const Vec3& wi, const Vec3& wo) const {
     const Query q = prepare(wi, wo);
     return q.valid ? q.sample : rgl::Point2f{-1.0f, -1.0f};
+}
+
+RglProvenance rgl_provenance(const RglBsdf& bsdf) {
+    RglProvenance p;
+    const nlohmann::json j = nlohmann::json::parse(bsdf.description, nullptr, false);
+    if (j.is_discarded() || !j.is_object() || !j.contains("generator") || !j["generator"].is_string())
+        return p;
+    p.ours = true;
+    p.generator = j["generator"].get<std::string>();
+    if (j.contains("spec")) p.spec = j["spec"].is_string() ? j["spec"].get<std::string>() : j["spec"].dump();
+    return p;
 }
 
 } // namespace brdf::formats

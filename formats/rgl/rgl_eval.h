@@ -22,9 +22,20 @@
 #include <formats/rgl/rgl_bsdf.h>
 #include <formats/rgl/rgl_warp.h>
 
+#include <string>
 #include <vector>
 
 namespace brdf::formats {
+
+/// What our `description` says (rgl_description's JSON object): the generator and the material
+/// spec (as JSON text). ours = false and both empty for anything else (the RGL database's files
+/// describe the measurement in free text).
+struct RglProvenance {
+    std::string generator;
+    std::string spec;
+    bool ours = false;
+};
+RglProvenance rgl_provenance(const RglBsdf& bsdf);
 
 class RglEvaluator {
   public:

@@ -159,8 +159,11 @@ TEST(Pipeline, RefusesWhatItCannotComputeYet) {
     // Every colour space and the spectral output are computed (tests/pipeline/colour_pipeline_test.cpp).
     EXPECT_EQ(refusal(R"({"name": "c", "medium": {"albedo": 0.9}, "colorspace": "acescg", "accuracy": "draft"})"),
               "no InputError");
-    EXPECT_EQ(refusal(R"({"name": "o", "medium": {"albedo": 0.9}, "outputs": ["merl", "rgl"]})"),
-              "test.json: the output \"rgl\" is not supported yet");
+    // Every output is computed.
+    EXPECT_EQ(refusal(R"({"name": "o", "binder": {"index": 1.5}, "pigments": [{"material": "tio2-rutile",
+                          "volume_fraction": 0.1, "size": {"radius_um": 0.2}}], "spectrum": "rgb", "accuracy": "draft",
+                          "outputs": ["merl", "exr", "fourier", "rgl", "spectral_exr"]})"),
+              "no InputError");
     // The defaults written out are computed as before.
     EXPECT_EQ(refusal(R"({"name": "d", "medium": {"albedo": 0.9}, "colorspace": "rec709",
                           "accuracy": "draft", "spectrum": "rgb"})"),

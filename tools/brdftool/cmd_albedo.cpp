@@ -42,7 +42,7 @@ int run_albedo(const AlbedoFlags& f) {
 Subcommand add_albedo_command(CLI::App& root) {
     auto flags = std::make_shared<AlbedoFlags>();
     CLI::App* app = root.add_subcommand("albedo", "Directional-hemispherical reflectance 'r g b' per incidence angle");
-    app->add_option("input", flags->input, "material spec (.json) or table (.binary, .exr)")->required();
+    app->add_option("input", flags->input, "material spec (.json) or table (.binary, .exr, Fourier .bsdf, .rgl.bsdf)")->required();
     app->add_option("--theta-i", flags->theta_i, "incidence zenith angles, degrees (default 0 30 60 80)")->delimiter(',');
     app->add_option("--material", flags->material, "material name in a catalogue");
     flags->device.add_to(*app);

@@ -79,9 +79,10 @@ Subcommand add_compute_command(CLI::App& root) {
     CLI::App* app = root.add_subcommand("compute", "Compute BRDF tables and reports for every material of specs or catalogues");
     app->add_option("spec", flags->specs, "material spec or catalogue files (.json)")->required();
     app->add_option("-o,--output", flags->output, "output folder (created if missing; default out)");
-    app->add_option("--formats", flags->formats, "table formats to write: merl, exr, spectral_exr (default: each spec's outputs)")
+    app->add_option("--formats", flags->formats,
+                    "formats to write: merl, exr, fourier, rgl, spectral_exr (default: each spec's outputs)")
         ->delimiter(',')
-        ->check(CLI::IsMember({"merl", "exr", "spectral_exr"}));
+        ->check(CLI::IsMember({"merl", "exr", "fourier", "rgl", "spectral_exr"}));
     app->add_option("--shard", flags->shard, "I/N: compute materials I, I+N, I+2N, ... (cluster job arrays)");
     app->add_flag("--preview", flags->preview, "also write DIR/NAME.png, a sphere rendering of each material");
     app->add_option("--jobs", flags->jobs, "materials computed at once (default 1)")->check(CLI::Range(1, 256));

@@ -64,6 +64,8 @@ void log_provenance(const formats::BrdfTable& table, formats::TableFormat from,
         log::info("convert: ", in.string(), ": spectral planes integrated to linear Rec.709 (CIE 1931, D65)");
     if (from == TableFormat::Fourier)
         log::info("convert: ", in.string(), ": Fourier BSDF evaluated at the bin centres");
+    if (from == TableFormat::RglTensor)
+        log::info("convert: ", in.string(), ": RGL BSDF evaluated at the bin centres (as Mitsuba 3's measured does)");
     if (to == TableFormat::Exr) {
         log::info("convert: ", out.string(), ": keeping brdf.spec (",
                   table.spec.empty() ? "absent" : cat(table.spec.size(), " bytes"),
@@ -117,16 +119,16 @@ Subcommand add_convert_command(CLI::App& root) {
     auto flags = std::make_shared<ConvertFlags>();
     Subcommand cmd;
     cmd.app =
-        root.add_subcommand("convert", "Convert a BRDF table (MERL, OpenEXR, spectral OpenEXR, Fourier BSDF) to .binary or .exr");
+        root.add_subcommand("convert", "Convert a BRDF table (MERL, OpenEXR, spectral OpenEXR, Fourier BSDF, RGL BSDF) to .binary or .exr");
     CLI::App& app = *cmd.app;
-    app.add_option("IN", flags->in, "table to read (.binary, .exr, .spectral.exr, Fourier .bsdf)")->required();
+    app.add_option("IN", flags->in, "table to read (.binary, .exr, .spectral.exr, Fourier .bsdf, .rgl.bsdf)")->required();
     app.add_option("OUT", flags->out, "table to write (.binary or .exr); replaced atomically")
         ->required();
     app.footer(
         "IN is recognised by its content (a misnamed file is read as what it is, with a warning);\n"
         "OUT's format by its extension (.binary: MERL, .exr: OpenEXR; case-insensitive). A spectral\n"
-        "table becomes linear Rec.709 (CIE 1931, D65); a Fourier BSDF is evaluated at the bin\n"
-        "centres. Valid values are unchanged beyond float32 rounding (the precision\n"
+        "table becomes linear Rec.709 (CIE 1931, D65); a Fourier or RGL BSDF is evaluated at the\n"
+        "bin centres. Valid values are unchanged beyond float32 rounding (the precision\n"
         "of the .exr file). brdf.spec, brdf.generator and brdf.colorspace are kept from .exr to\n"
         ".exr; a .binary file has no metadata, so they are dropped going to it (brdftool\n"
         "--log-level info convert ... says so). OUT is written to a temporary file and renamed,\n"

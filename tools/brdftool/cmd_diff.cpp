@@ -196,7 +196,7 @@ Subcommand add_diff_command(CLI::App& root) {
     Subcommand cmd;
     cmd.app = root.add_subcommand("diff", "Per-channel relative difference of two BRDF tables, or of a table and its spec");
     CLI::App& app = *cmd.app;
-    app.add_option("A", flags->a, "table to check (.binary or .exr), or a material spec (.json)")->required();
+    app.add_option("A", flags->a, "table to check (.binary, .exr, Fourier .bsdf, .rgl.bsdf), or a material spec (.json)")->required();
     app.add_option("B", flags->b, "reference table (.binary or .exr), or a material spec (.json)")->required();
     app.add_option("--material", flags->material, "material name in a spec catalogue");
     flags->device.add_to(app);

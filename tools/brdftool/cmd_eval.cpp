@@ -135,7 +135,7 @@ int run_eval(const EvalFlags& f) {
 Subcommand add_eval_command(CLI::App& root) {
     auto flags = std::make_shared<EvalFlags>();
     CLI::App* app = root.add_subcommand("eval", "BRDF (1/sr) as 'r g b' per direction triple, of a spec or a table");
-    app->add_option("input", flags->input, "material spec (.json) or table (.binary, .exr)")->required();
+    app->add_option("input", flags->input, "material spec (.json) or table (.binary, .exr, Fourier .bsdf, .rgl.bsdf)")->required();
     app->add_option("--theta-i", flags->theta_i, "light zenith angle, degrees [0, 90]");
     app->add_option("--theta-o", flags->theta_o, "viewer zenith angle, degrees [0, 90]");
     app->add_option("--phi", flags->phi, "azimuth phi_o - phi_i, degrees (0: light's side, 180: mirror side)");

@@ -4,7 +4,8 @@
 // (formats::table_stats) and the directional albedo at a few incidence angles
 // (formats::directional_albedo). A spectral table also lists its wavelengths, and its statistics
 // are those of its RGB; a Fourier BSDF has no cells: its nodes, orders, channels, eta and metadata
-// are printed, and the albedo integrates its evaluation. Human-readable by default; --json prints
+// are printed, and the albedo integrates its evaluation; an RGL tensor BSDF likewise prints its
+// grids (incidences, sample grid, warps), channels and description. Human-readable by default; --json prints
 // one JSON object with the same content for scripts.
 
 #include "commands.h"
@@ -14,6 +15,7 @@
 #include <formats/exr/spectral_exr.h>
 #include <formats/fourier/fourier.h>
 #include <formats/merl/merl.h>
+#include <formats/rgl/rgl_eval.h>
 #include <formats/table_io.h>
 
 #include <brdf/core/error.h>
@@ -140,6 +142,84 @@ int info_fourier(const fs::path& path, std::uintmax_t size, bool json) {
     return 0;
 }
 
+std::string shape_text(const std::vector<std::size_t>& shape) {
+    std::string out;
+    for (std::size_t d : shape) out += cat(out.empty() ? "" : " x ", d);
+    return out;
+}
+
+/// An RGL tensor BSDF: its grids, channels, description, and the albedo of its evaluation (as
+/// Mitsuba 3's `measured` evaluates it).
+int info_rgl(const fs::path& path, std::uintmax_t size, bool json) {
+    const Source source = load_source(path, {}, model::Device::Cpu); // the file, with RGB weights if spectral
+    const formats::RglBsdf& b = source.rgl->bsdf();
+    const formats::RglProvenance p = formats::rgl_provenance(b);
+    std::vector<AlbedoRow> albedo;
+    for (double deg : albedo_angles_deg) albedo.push_back({deg, source.albedo(deg * formats::pi / 180.0)});
+    const double max_theta_deg = b.theta_i.back() * 180.0 / formats::pi;
+    const std::string channels =
+        b.spectral() ? cat(b.wavelengths.size(), " wavelengths, ", b.wavelengths.front(), " to ", b.wavelengths.back(), " nm")
+                     : std::string("R, G, B");
+    if (json) {
+        nlohmann::ordered_json out;
+        out["file"] = path.string();
+        out["format"] = formats::to_string(formats::TableFormat::RglTensor);
+        out["file_size_bytes"] = size;
+        out["layout"] = "Dupuy and Jakob 2018: BRDF samples on a visible-normal warp per incidence";
+        out["theta_i"] = b.theta_i;
+        out["phi_i"] = b.phi_i;
+        out["isotropic"] = b.isotropic();
+        out["sample_resolution"] = b.sample_resolution();
+        out["ndf_shape"] = b.ndf.shape;
+        out["sigma_shape"] = b.sigma.shape;
+        out["vndf_shape"] = b.vndf.shape;
+        out["channels"] = b.spectral() ? "spectra" : "rgb";
+        if (b.spectral()) out["wavelengths_nm"] = b.wavelengths;
+        out["jacobian"] = b.jacobian;
+        out["units"] = "1/sr";
+        nlohmann::ordered_json provenance = nlohmann::ordered_json::object();
+        if (p.ours) {
+            provenance["brdf.spec"] = p.spec;
+            provenance["brdf.generator"] = p.generator;
+        } else {
+            provenance["description"] = b.description;
+        }
+        out["provenance"] = provenance;
+        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+        for (const AlbedoRow& row : albedo) rows.push_back({{"theta_i_deg", row.theta_i_deg}, {"rgb", row.rho}});
+        out["directional_albedo"] = rows;
+        std::cout << out.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+        return 0;
+    }
+    std::ostringstream os;
+    os << path.string() << '\n';
+    os << "  format:      " << formats::to_string(formats::TableFormat::RglTensor) << " (Dupuy and Jakob 2018), "
+       << size << " bytes\n";
+    os << "  layout:      " << b.theta_i.size() << " incidences theta_i from 0 to " << num(max_theta_deg) << " deg, "
+       << b.phi_i.size() << " phi_i (" << (b.isotropic() ? "isotropic" : "anisotropic") << "), "
+       << b.sample_resolution() << " x " << b.sample_resolution() << " samples each\n";
+    os << "               ndf " << shape_text(b.ndf.shape) << ", sigma " << shape_text(b.sigma.shape) << ", vndf "
+       << shape_text(b.vndf.shape) << ", jacobian " << (b.jacobian ? 1 : 0) << '\n';
+    os << "  channels:    " << channels << '\n';
+    if (p.ours) {
+        os << "  generator:   " << (p.generator.empty() ? "(absent)" : p.generator) << '\n';
+        os << "  spec:        " << (p.spec.empty() ? "(absent)" : spec_summary(p.spec)) << '\n';
+    } else {
+        os << "  description: " << (b.description.empty() ? "(none)" : spec_summary(b.description)) << '\n';
+    }
+    char line[128];
+    os << "  directional albedo (evaluated as Mitsuba 3's measured does):\n";
+    std::snprintf(line, sizeof line, "    %-9s %12s %12s %12s\n", "theta_i", "red", "green", "blue");
+    os << line;
+    for (const AlbedoRow& row : albedo) {
+        std::snprintf(line, sizeof line, "    %5.0f deg %12.6g %12.6g %12.6g\n", row.theta_i_deg, row.rho[0],
+                      row.rho[1], row.rho[2]);
+        os << line;
+    }
+    std::cout << os.str();
+    return 0;
+}
+
 int run_info(const InfoFlags& f) {
     const fs::path path = f.file;
     const formats::TableFormat format = formats::detect_format(path); // by content; IoError, InputError
@@ -147,6 +227,7 @@ int run_info(const InfoFlags& f) {
     const std::uintmax_t size = fs::file_size(path, ec);
     if (ec) throw IoError(cat(path.string(), ": cannot stat: ", ec.message()));
     if (format == formats::TableFormat::Fourier) return info_fourier(path, size, f.json);
+    if (format == formats::TableFormat::RglTensor) return info_rgl(path, size, f.json);
     std::optional<formats::SpectralTable> spectral;
     if (format == formats::TableFormat::SpectralExr) spectral = formats::read_spectral_exr(path);
     const formats::BrdfTable table = spectral ? spectral_to_rgb()(*spectral)
@@ -269,7 +350,7 @@ Subcommand add_info_command(CLI::App& root) {
     cmd.app = root.add_subcommand(
         "info", "Format, layout, provenance and value statistics of a BRDF table");
     CLI::App& app = *cmd.app;
-    app.add_option("FILE", flags->file, "table (.binary, .exr, .spectral.exr, Fourier .bsdf)")->required();
+    app.add_option("FILE", flags->file, "table (.binary, .exr, .spectral.exr, Fourier .bsdf, .rgl.bsdf)")->required();
     app.add_flag("--json", flags->json, "print one JSON object instead of text");
     app.footer("Prints the format, file size, layout (90 x 90 x 180 half/difference cells), "
                "provenance (the\n"
@@ -279,7 +360,8 @@ Subcommand add_info_command(CLI::App& root) {
                "unweighted over\n"
                "cells with data) and the directional albedo at theta_i = 0, 30, 60, 80 degrees.\n"
                "The format is recognised by content. A spectral .exr lists its wavelengths; a Fourier\n"
-               ".bsdf (pbrt-v3) prints nodes, orders, channels, eta and its metadata instead of cells.");
+               ".bsdf (pbrt-v3) prints nodes, orders, channels, eta and its metadata instead of cells, an\n"
+               ".rgl.bsdf (Mitsuba 3, pbrt-v4) its incidences, sample grid, warps, channels and description.");
     cmd.run = [flags]() -> int { return run_info(*flags); };
     return cmd;
 }

@@ -58,7 +58,7 @@ int run_lobes(LobesFlags& f) {
 Subcommand add_lobes_command(CLI::App& root) {
     auto flags = std::make_shared<LobesFlags>();
     CLI::App* app = root.add_subcommand("lobes", "In-plane BRDF lobe plot (polar) for given incidence angles");
-    app->add_option("inputs", flags->inputs, "material specs (.json) and/or tables (.binary, .exr), overlaid")
+    app->add_option("inputs", flags->inputs, "material specs (.json) and/or tables (.binary, .exr, Fourier .bsdf, .rgl.bsdf), overlaid")
         ->required();
     app->add_option("-o,--output", flags->output, "image to write: .png (or .exr)")->required();
     app->add_option("--theta-i", flags->theta_i, "incidence angles, degrees [0, 90), comma separated")

@@ -7,10 +7,14 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/threads.h>
+#include <brdf/model/table_fill.h>
 #include <brdf/preview/image.h>
 #include <brdf/preview/render.h>
 
+#include <algorithm>
 #include <memory>
+#include <optional>
 
 namespace brdf::tool {
 namespace {
@@ -32,15 +36,36 @@ int run_render(RenderFlags& f) {
 
     const Source source = load_source(f.input, f.material, f.device.device());
     if (source.model && source.model->spec.surface.kind == material::Surface::Smooth) {
-        const model::SolvedMaterial& m = *source.model;
-        f.options.mirror = preview::in_rec709([&m](double theta) { return m.mirror(theta); }, m.spec.colorspace);
-    } else if (source.table) {
+        // The mirror reflectance (an adding solve per call) is smooth in theta: tabulated once and
+        // interpolated linearly, instead of solved at every sub-pixel sample.
+        constexpr int nodes = 1025;
+        auto table = std::make_shared<std::vector<model::Rgb>>(nodes);
+        parallel_for(nodes, 0, [&](int k) { (*table)[k] = source.model->mirror(0.5 * formats::pi * k / (nodes - 1)); });
+        const auto tabulated = [table](double theta) {
+            const double t = std::clamp(theta / (0.5 * formats::pi), 0.0, 1.0) * (nodes - 1);
+            const int k = std::min(static_cast<int>(t), nodes - 2);
+            const double w = t - k;
+            model::Rgb out;
+            for (int c = 0; c < 3; ++c) out[c] = (1.0 - w) * (*table)[k][c] + w * (*table)[k + 1][c];
+            return out;
+        };
+        f.options.mirror = preview::in_rec709(tabulated, source.model->spec.colorspace);
+    } else if (!source.model) {
         log::info(f.input, ": a table holds no mirror reflection; rendering the diffuse part only");
     }
+    // A solved spec is shaded through the table fill's batched data (the order grids at the table's
+    // zenith angles, interpolated, plus the exact single scattering): microseconds per direction,
+    // where SolvedMaterial::brdf solves a Nystrom system per direction and wavelength. The dipole
+    // comparison model is not in the fill and keeps the per-direction path.
+    std::optional<model::FillInputs> fill;
+    if (source.model && source.model->spec.model != material::Model::Dipole) fill = model::prepare_fill(*source.model);
     // Shaded and displayed in Rec.709: the source's colour space converted (preview::in_rec709).
     const preview::Image image = preview::render_sphere(
-        preview::in_rec709([&source](double ti, double to, double phi) { return source.brdf(ti, to, phi); },
-                           source.colorspace()),
+        preview::in_rec709(
+            [&source, &fill](double ti, double to, double phi) {
+                return fill ? model::fill_value(*fill, ti, to, phi) : source.brdf(ti, to, phi);
+            },
+            source.colorspace()),
         f.options);
     preview::write_image(image, f.output, tone);
     log::info("wrote ", f.output);
@@ -53,7 +78,7 @@ Subcommand add_render_command(CLI::App& root) {
     auto flags = std::make_shared<RenderFlags>();
     preview::RenderOptions& o = flags->options;
     CLI::App* app = root.add_subcommand("render", "Preview image: a sphere of the material under a directional light");
-    app->add_option("input", flags->input, "material spec (.json) or table (.binary, .exr)")->required();
+    app->add_option("input", flags->input, "material spec (.json) or table (.binary, .exr, Fourier .bsdf, .rgl.bsdf)")->required();
     app->add_option("-o,--output", flags->output, "image to write: .png (tone-mapped, sRGB) or .exr (linear float)")
         ->required();
     app->add_option("--size", o.size, "width and height in pixels, [8, 8192]")->capture_default_str();

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 
 namespace brdf::tool {
@@ -57,9 +58,18 @@ Source load_source(const std::filesystem::path& path, const std::string& materia
     if (!is_spec_file(path)) {
         if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
         const formats::TableFormat format = formats::detect_format(path);
-        if (format == formats::TableFormat::Fourier)
+        if (format == formats::TableFormat::Fourier) {
             s.fourier = formats::read_fourier_bsdf(path);
-        else
+        } else if (format == formats::TableFormat::RglTensor) {
+            s.rgl.emplace(formats::read_rgl_bsdf(path));
+            if (s.rgl->bsdf().spectral()) {
+                const std::vector<float>& nm = s.rgl->bsdf().wavelengths;
+                const material::SpectralSet set =
+                    material::SpectralSet::integrating(std::vector<double>(nm.begin(), nm.end()));
+                const auto w = set.rgb_weights();
+                s.rgl_weights.assign(w.begin(), w.end());
+            }
+        } else
             s.table = formats::read_table(path, format, spectral_to_rgb());
         return s;
     }
@@ -85,15 +95,29 @@ std::string recorded_material(const std::filesystem::path& table_path, const for
 model::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {
     if (model) return model->brdf(theta_i, theta_o, phi);
     if (fourier) return formats::evaluate(*fourier, theta_i, theta_o, phi);
+    if (rgl) {
+        // wi in the plane phi = 0, wo at azimuth phi (docs/design.md).
+        const formats::Vec3 wi{std::sin(theta_i), 0.0, std::cos(theta_i)};
+        const formats::Vec3 wo{std::sin(theta_o) * std::cos(phi), std::sin(theta_o) * std::sin(phi), std::cos(theta_o)};
+        const std::vector<double> v = rgl->brdf(wi, wo);
+        model::Rgb out{0.0, 0.0, 0.0};
+        if (!rgl->bsdf().spectral()) {
+            out = {v[0], v[1], v[2]};
+        } else {
+            for (std::size_t k = 0; k < v.size(); ++k)
+                for (int c = 0; c < 3; ++c) out[c] += rgl_weights[k][c] * v[k];
+        }
+        for (double& x : out) x = std::max(0.0, x); // pbrt-v4 clamps negative samples
+        return out;
+    }
     return formats::lookup(*table, theta_i, theta_o, phi);
 }
 
 model::Rgb Source::albedo(double theta_i) const {
     if (model) return model->albedo(theta_i);
-    if (fourier)
-        return formats::directional_albedo(
-            [&](double theta_o, double phi) { return formats::evaluate(*fourier, theta_i, theta_o, phi); },
-            theta_i);
+    if (fourier || rgl)
+        return formats::directional_albedo([&](double theta_o, double phi) { return brdf(theta_i, theta_o, phi); },
+                                           theta_i);
     return formats::directional_albedo(*table, theta_i);
 }
 

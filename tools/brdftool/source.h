@@ -1,12 +1,14 @@
 #pragma once
 // What eval, albedo and diff read: a material spec (solved on the spot, evaluated exactly at the
-// requested angles), a pbrt-v3 Fourier BSDF (.bsdf; evaluated as pbrt-v3 does, formats::evaluate)
-// or a table file (.binary, .exr, spectral .exr as RGB; evaluated by nearest-bin lookup). Files are
+// requested angles), a pbrt-v3 Fourier BSDF (.bsdf; evaluated as pbrt-v3 does, formats::evaluate),
+// an RGL tensor BSDF (.rgl.bsdf; evaluated as Mitsuba 3's `measured` does, formats::RglEvaluator,
+// a spectral one weighted to RGB by the CIE 1931 / D65 weights of its wavelengths) or a table file (.binary, .exr, spectral .exr as RGB; evaluated by nearest-bin lookup). Files are
 // recognised by content (formats::detect_format).
 
 #include <brdf/material/colour_space.h>
 #include <brdf/model/model.h>
 #include <formats/fourier/fourier.h>
+#include <formats/rgl/rgl_eval.h>
 #include <formats/table.h>
 #include <formats/table_io.h>
 
@@ -15,6 +17,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace brdf::tool {
 
@@ -28,6 +31,9 @@ struct DeviceFlag {
 struct Source {
     std::optional<model::SolvedMaterial> model;
     std::optional<formats::FourierBsdf> fourier;
+    std::optional<formats::RglEvaluator> rgl;
+    /// For a spectral RGL file: the RGB weight of each of its wavelengths.
+    std::vector<model::Rgb> rgl_weights;
     std::optional<formats::BrdfTable> table;
 
     /// BRDF (1/sr) at angles in radians.
@@ -35,8 +41,9 @@ struct Source {
     /// The colour space of brdf() and albedo(): the spec's, the table's (brdf.colorspace, or the
     /// spectral table's recorded spec), Rec.709 for a Fourier BSDF and a MERL file.
     material::ColorSpace colorspace() const;
-    /// Directional-hemispherical reflectance at theta_i (radians): the model's, the Fourier BSDF's
-    /// by formats::directional_albedo's quadrature of evaluate, or the table's by lookup.
+    /// Directional-hemispherical reflectance at theta_i (radians): the model's, the Fourier or RGL
+    /// BSDF's by formats::directional_albedo's quadrature of their evaluation, or the table's by
+    /// lookup.
     model::Rgb albedo(double theta_i) const;
 };
 

@@ -25,8 +25,6 @@ void check_supported(const material::MaterialSpec& spec) {
         throw InputError(cat(who, ": ", what, " not supported yet"));
     };
     if (spec.layers.empty()) refuse("a material without layers is");
-    for (const std::string& f : spec.outputs)
-        if (f != "merl" && f != "exr" && f != "spectral_exr") refuse(cat("the output \"", f, "\" is"));
     if (spec.model == material::Model::Dipole && (spec.layers.size() > 1 || !spec.layers[0].semi_infinite()))
         throw InputError(cat(who, ": \"model\": \"dipole\" is a semi-infinite comparison model; it has no films "
                                   "or stacks (remove \"model\" or the thickness)"));

@@ -10,6 +10,7 @@
 #include <brdf/core/version.h>
 #include <brdf/material/spec.h>
 #include <brdf/model/model.h>
+#include <brdf/service/renderer_outputs.h>
 #include <brdf/service/report.h>
 #include <brdf/model/cl_table_fill.h>
 #include <brdf/material/colour.h>
@@ -40,6 +41,8 @@ std::vector<std::string> formats_for(const material::MaterialSpec& spec, const C
 
 fs::path output_path(const fs::path& dir, const std::string& name, const std::string& format) {
     if (format == "spectral_exr") return dir / (name + ".spectral.exr");
+    if (format == "fourier") return dir / (name + ".fourier.bsdf");
+    if (format == "rgl") return dir / (name + ".rgl.bsdf");
     return dir / (name + (format == "merl" ? ".binary" : ".exr"));
 }
 
@@ -209,7 +212,11 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     model::SolvedMaterial solved = model::solve_material(spec, options.device, model::settings_for(tolerance));
     progress.stage("table");
     auto t = std::chrono::steady_clock::now();
-    formats::BrdfTable table = model::fill_table(model::prepare_fill(solved), options.device);
+    const model::FillInputs fill = model::prepare_fill(solved);
+    // The MERL/EXR table only when one of them is written (the renderer formats use `fill`).
+    formats::BrdfTable table;
+    if (std::any_of(formats.begin(), formats.end(), [](const std::string& f) { return f == "merl" || f == "exr"; }))
+        table = model::fill_table(fill, options.device);
     table.spec = spec.resolved.dump();
     table.generator = std::string(generator_string);
     table.colorspace = std::string(material::to_string(spec.colorspace)); // EXR chromaticities follow
@@ -227,9 +234,11 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     std::vector<std::future<void>> writes;
     for (const std::string& f : formats) {
         const fs::path path = output_path(options.output_dir, spec.name, f);
-        writes.push_back(std::async(std::launch::async, [path, f, &table, &solved, &options] {
+        writes.push_back(std::async(std::launch::async, [path, f, &table, &solved, &options, &fill] {
             if (f == "merl") formats::write_merl(path, table);
             else if (f == "spectral_exr") write_spectral_table(path, solved, table.spec, options.device);
+            else if (f == "fourier") write_fourier_output(path, solved, fill, renderer_resolution(solved.settings.tolerance));
+            else if (f == "rgl") write_rgl_output(path, solved, fill, renderer_resolution(solved.settings.tolerance));
             else formats::write_exr(path, table);
         }));
         outcome.outputs.push_back(path);
