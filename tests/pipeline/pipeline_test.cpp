@@ -178,29 +178,51 @@ namespace {
 
 // Interpolating the BRDF in wavelength between the solved ones stays within the requested
 // tolerance of solving every wavelength, for the example catalogue's particulate materials.
-TEST(PipelineSpectral, SelectedWavelengthsMeetTheTolerance) {
-    const auto specs = material::load_specs(source_dir() / "examples/catalogue.json");
-    for (const auto& spec : specs) {
-        if (spec.layers[0].medium) continue;
-        // CdS with a trace of copper (added for the colour tests): the selection sees what it sees
-        // in cds-yellow, and a ninth default-accuracy solve would push this test past its timeout.
-        if (spec.name == "cds-copper-mixture") continue;
-        model::NumericalSettings all = model::settings_for(spec.accuracy.tolerance);
-        all.select_wavelengths = false;
-        const auto full = model::solve_material(spec, model::Device::Cpu, all);
-        const auto fast = model::solve_material(spec, model::Device::Cpu);
-        double worst = 0.0;
-        for (double ti : {0.1, 0.6, 1.2})
-            for (double to : {0.2, 0.9, 1.4})
-                for (double phi : {0.0, 2.0, 3.1}) {
-                    const auto a = fast.brdf(ti, to, phi), b = full.brdf(ti, to, phi);
-                    for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(a[c] - b[c]) / b[c]);
-                }
-        std::printf("%-22s solved %2zu of %2zu wavelengths, worst relative difference %.2e\n", spec.name.c_str(),
-                    fast.samples.size(), full.samples.size(), worst);
-        EXPECT_LE(worst, spec.accuracy.tolerance) << spec.name;
-    }
+// One case per particulate material of the example catalogue and a film of examples/films.json
+// (whose optical depth the selection also follows), each its own test.
+struct SpectralCase {
+    std::string file, name;
+};
+
+std::vector<SpectralCase> spectral_cases() {
+    std::vector<SpectralCase> out;
+    for (const auto& spec : material::load_specs(source_dir() / "examples/catalogue.json"))
+        if (!spec.layers[0].medium) out.push_back({"catalogue.json", spec.name});
+    out.push_back({"films.json", "white-25um-on-black"});
+    return out;
 }
+
+class PipelineSpectral : public ::testing::TestWithParam<SpectralCase> {};
+
+TEST_P(PipelineSpectral, SelectedWavelengthsMeetTheTolerance) {
+    const SpectralCase& c = GetParam();
+    material::MaterialSpec spec;
+    for (auto& s : material::load_specs(source_dir() / "examples" / c.file))
+        if (s.name == c.name) spec = s;
+    ASSERT_EQ(spec.name, c.name);
+    model::NumericalSettings all = model::settings_for(spec.accuracy.tolerance);
+    all.select_wavelengths = false;
+    const auto full = model::solve_material(spec, model::Device::Cpu, all);
+    const auto fast = model::solve_material(spec, model::Device::Cpu);
+    double worst = 0.0;
+    for (double ti : {0.1, 0.6, 1.2})
+        for (double to : {0.2, 0.9, 1.4})
+            for (double phi : {0.0, 2.0, 3.1}) {
+                const auto a = fast.brdf(ti, to, phi), b = full.brdf(ti, to, phi);
+                for (int ch = 0; ch < 3; ++ch) worst = std::max(worst, std::abs(a[ch] - b[ch]) / b[ch]);
+            }
+    std::printf("%-22s solved %2zu of %2zu wavelengths, worst relative difference %.2e\n", spec.name.c_str(),
+                fast.samples.size(), full.samples.size(), worst);
+    EXPECT_LE(worst, spec.accuracy.tolerance) << spec.name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Examples, PipelineSpectral, ::testing::ValuesIn(spectral_cases()),
+                         [](const ::testing::TestParamInfo<SpectralCase>& info) {
+                             std::string n = info.param.name;
+                             for (char& ch : n)
+                                 if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                             return n;
+                         });
 
 } // namespace
 } // namespace brdf::test
