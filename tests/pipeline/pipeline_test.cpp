@@ -161,7 +161,7 @@ TEST(Pipeline, RefusesWhatItCannotComputeYet) {
               "no InputError");
     // Every output is computed.
     EXPECT_EQ(refusal(R"({"name": "o", "binder": {"index": 1.5}, "pigments": [{"material": "tio2-rutile",
-                          "volume_fraction": 0.1, "size": {"radius_um": 0.2}}], "spectrum": "rgb", "accuracy": "draft",
+                          "volume_fraction": 0.1, "size": {"distribution": "monodisperse", "radius_um": 0.2}}], "spectrum": "rgb", "accuracy": "draft",
                           "outputs": ["merl", "exr", "fourier", "rgl", "spectral_exr"]})"),
               "no InputError");
     // The defaults written out are computed as before.
