@@ -33,13 +33,11 @@ static_assert(offsetof(AmbTask, method) == 56);
 static_assert(offsetof(AmbTask, max_iterations) == 60);
 static_assert(offsetof(AmbTask, fast_sweeps) == 64);
 static_assert(offsetof(AmbTask, pad) == 68);
-static_assert(sizeof(AmbStatus) == 32);
-static_assert(offsetof(AmbStatus, last_change) == 0);
-static_assert(offsetof(AmbStatus, scale) == 8);
-static_assert(offsetof(AmbStatus, iterations) == 16);
-static_assert(offsetof(AmbStatus, converged) == 20);
-static_assert(offsetof(AmbStatus, error) == 24);
-static_assert(offsetof(AmbStatus, detail) == 28);
+static_assert(sizeof(AmbStatus) == 16);
+static_assert(offsetof(AmbStatus, iterations) == 0);
+static_assert(offsetof(AmbStatus, converged) == 4);
+static_assert(offsetof(AmbStatus, error) == 8);
+static_assert(offsetof(AmbStatus, detail) == 12);
 static_assert(static_cast<int>(Method::FixedPoint) == AMB_FIXED_POINT);
 static_assert(static_cast<int>(Method::Doubling) == AMB_DOUBLING);
 static_assert(static_cast<int>(Method::Fast) == AMB_FAST);
@@ -48,6 +46,11 @@ static_assert(max_opencl_streams == AMB_MAX_N);
 namespace {
 
 constexpr std::size_t preferred_local_size = 64;
+// The cooperative kernel's local reduction arrays hold AMB_MAX_WG partials, one per work-item; the
+// local size chosen below is clamped to it.
+static_assert(preferred_local_size <= AMB_MAX_WG);
+// The kernels' workspace slots 0..14 (ambartsumian.cl, ambartsumian_serial.cl) fit what is allocated.
+static_assert(AMB_WORKSPACE_MATRICES >= 15);
 
 std::size_t floor_power_of_two(std::size_t v) {
     std::size_t p = 1;
