@@ -203,8 +203,29 @@ ClSolverKernel resolve_solver_kernel(ClSolverKernel requested) {
     return resolve_on(*brdf::cl::Context::shared(), requested);
 }
 
+std::size_t opencl_workspace_bytes(int n) { return workspace_doubles(n) * sizeof(double); }
+
+std::vector<std::pair<std::size_t, std::size_t>> launch_ranges(std::span<const OrderProblem> problems,
+                                                               std::size_t budget_bytes) {
+    std::vector<std::pair<std::size_t, std::size_t>> ranges;
+    std::size_t first = 0;
+    while (first < problems.size()) {
+        std::size_t last = first, bytes = 0;
+        while (last < problems.size()) {
+            const std::size_t b = opencl_workspace_bytes(problems[last].streams.size());
+            if (last > first && bytes + b > budget_bytes) break;
+            bytes += b;
+            ++last;
+        }
+        ranges.emplace_back(first, last);
+        first = last;
+    }
+    return ranges;
+}
+
 std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> problems, Method method,
-                                               const SolveControl& control, ClSolverKernel which) {
+                                               const SolveControl& control, ClSolverKernel which,
+                                               std::size_t workspace_budget_bytes) {
     if (method != Method::FixedPoint && method != Method::Doubling && method != Method::Fast)
         throw InputError("unknown solver method");
     for (std::size_t k = 0; k < problems.size(); ++k) validate(problems[k], k);
@@ -231,21 +252,12 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
     cl_ulong max_alloc = 0;
     brdf::cl::check(ctx->device().getInfo(CL_DEVICE_MAX_MEM_ALLOC_SIZE, &max_alloc),
                     "OpenCL order solver: query max allocation size");
-    const std::size_t budget = std::min<std::size_t>(static_cast<std::size_t>(max_alloc), std::size_t{1} << 30);
-
-    // Split into launches whose workspace fits one allocation.
-    std::size_t first = 0;
-    while (first < problems.size()) {
-        std::size_t last = first, bytes = 0;
-        while (last < problems.size()) {
-            const std::size_t b = workspace_doubles(problems[last].streams.size()) * sizeof(double);
-            if (last > first && bytes + b > budget) break;
-            bytes += b;
-            ++last;
-        }
+    const std::size_t budget = workspace_budget_bytes > 0
+                                   ? workspace_budget_bytes
+                                   : std::min<std::size_t>(static_cast<std::size_t>(max_alloc), std::size_t{1} << 30);
+    // Launches whose workspace fits one allocation.
+    for (const auto& [first, last] : launch_ranges(problems, budget))
         solve_range(*ctx, kernel, local_size, problems, first, last, method, control, out);
-        first = last;
-    }
     return out;
 }
 
