@@ -3,7 +3,8 @@
 // src/brdf/rte/order_solver.cpp (fixed point, structure-preserving doubling with the conservative
 // rank-one shift, and the fast switch between them) and src/brdf/core/linalg.cpp (LU with partial
 // pivoting). Every matrix element is summed over k in increasing order, as the reference does, so the
-// two agree to a few ulp per operation.
+// two agree to a few ulp per operation. The step limit, the method switch and every element formula
+// of the equation's matrices are the reference's own, from shared/ambartsumian_rules.h.
 //
 // Structure: the kernel is a small interpreter with a single barrier. Each pass of its main loop first
 // runs the (private, identical on every work-item) control logic, which picks the next operation
@@ -16,9 +17,9 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "shared/ambartsumian_layout.h"
+#include "shared/ambartsumian_rules.h"
 #include "shared/ambartsumian_setup.h"
 
-#define DOUBLING_STEPS 100
 
 // Operations (what all work-items do between two barriers).
 #define OP_NONE 0
@@ -77,59 +78,56 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
     const double om = task.omega;
     __global const double* mu = input + task.input_offset;
     __global const double* w = mu + n;
-    __global const double* pp = w + n;
-    __global const double* pm = pp + n2;
+    __global const double* phase_plus = w + n;
+    __global const double* phase_minus = phase_plus + n2;
     __global double* x_out = output + task.output_offset;
     __global double* ws = workspace + task.workspace_offset;
     const double g = task.gamma;
     const double g2 = 2.0 * g;
-    const int conservative = task.m == 0 && om >= 1.0;
+    const int conservative = amb_conservative(task.m, om);
 
-    // Fixed point slots.
+    // Workspace slots (n x n each). The Riccati B and C (slots 5, 6) serve the fixed point and the
+    // doubling set-up alike.
+    __global double* riccati_b = ws + 5 * n2;
+    __global double* riccati_c = ws + 6 * n2;
+    // Fixed point: the iterate and the next one, the sweep's constant products.
     __global double* x = ws;
     __global double* nx = ws + n2;
-    __global double* left = ws + 3 * n2;
-    __global double* right = ws + 4 * n2;
-    __global double* fc = ws + 5 * n2;
-    __global double* fb = ws + 6 * n2;
-    // Doubling slots (set-up matrices live in slots 4..11 until the first step).
-    __global double* e = ws;
-    __global double* f = ws + n2;
-    __global double* gm = ws + 2 * n2;
-    __global double* hm = ws + 3 * n2;
-    __global double* e1 = ws + 4 * n2;
-    __global double* f1 = ws + 5 * n2;
-    __global double* g1 = ws + 6 * n2;
-    __global double* h1 = ws + 7 * n2;
+    __global double* sweep_left = ws + 3 * n2;
+    __global double* sweep_right = ws + 4 * n2;
+    // Doubling: the SDA iterates E_k, F_k, G_k, H_k and the next ones (Guo, Lin and Xu
+    // 2006); the set-up matrices live in slots 4..11 until the first step.
+    __global double* e_k = ws;
+    __global double* f_k = ws + n2;
+    __global double* g_k = ws + 2 * n2;
+    __global double* h_k = ws + 3 * n2;
+    __global double* e_next = ws + 4 * n2;
+    __global double* f_next = ws + 5 * n2;
+    __global double* g_next = ws + 6 * n2;
+    __global double* h_next = ws + 7 * n2;
     __global double* z = ws + 8 * n2;  // n x 2n
     __global double* y = ws + 10 * n2; // n x 2n
     __global double* lu = ws + 12 * n2;
     __global double* t = ws + 13 * n2;
-    __global double* ag = ws + 4 * n2;
-    __global double* bb = ws + 5 * n2;
-    __global double* cc = ws + 6 * n2;
-    __global double* dg = ws + 7 * n2;
+    __global double* a_gamma = ws + 4 * n2; // A + g I
+    __global double* d_gamma = ws + 7 * n2; // D + g I
     __global double* dinv = ws + 8 * n2;
     __global double* ainv = ws + 9 * n2;
     __global double* winv = ws + 10 * n2;
     __global double* vinv = ws + 11 * n2;
 
-    double ev1 = 0.0; // conservation shift normaliser, e . v1
-    if (conservative)
-        for (int i = 0; i < n; ++i) ev1 += 2.0 * w[i] * mu[i];
+    const double ev1 = amb_shift_norm(conservative, n, mu, w);
 
     // Outcome and control state (private, identical on every work-item).
-    double change = 0.0, scale = 0.0;
     int iterations = 0, converged = 0, error = AMB_OK, detail = 0;
     int state = S_START, it = 0, sweeps = 0, cap = 0;
     int lu_k = 0, lu_ret = 0, lu_p = 0;
     double pivot = 1.0;
-    __global double* lu_a = lu;
     __global double* result = x;
 
     while (state != S_FINISHED) {
         // ---- control: choose the next operation ----
-        int op = OP_NONE, mode = MODE_PLAIN, ldo = n, lda = n, ldb = n, cols = n;
+        int op = OP_NONE, mode = MODE_PLAIN, ldo = n, ldb = n, cols = n;
         double s = 0.0;
         __global double* out = 0;
         __global const double* base = 0;
@@ -141,7 +139,7 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                 if (task.method == AMB_FIXED_POINT) {
                     cap = task.max_iterations;
                     state = S_FP_SETUP;
-                } else if (task.method == AMB_FAST && !(task.m == 0 && om > 0.9)) {
+                } else if (task.method == AMB_FAST && !amb_fast_starts_with_doubling(task.m, om)) {
                     cap = task.fast_sweeps;
                     state = S_FP_SETUP;
                 } else {
@@ -160,7 +158,7 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                     state = S_FP_DONE;
                     break;
                 }
-                op = OP_GEMM, out = t, a = x, b = fc; // X C
+                op = OP_GEMM, out = t, a = x, b = riccati_c; // X C
                 state = S_FP_SWEEP;
                 break;
             case S_FP_SWEEP:
@@ -168,14 +166,13 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                 state = S_FP_DECIDE;
                 break;
             case S_FP_DECIDE: {
-                double c0 = 0.0, s0 = 0.0;
+                double change = 0.0, scale = 0.0;
                 int bad = 0;
                 for (int q = 0; q < lsz; ++q) {
-                    c0 = fmax(c0, part_a[q]);
-                    s0 = fmax(s0, part_b[q]);
+                    change = fmax(change, part_a[q]);
+                    scale = fmax(scale, part_b[q]);
                     bad |= part_i[q];
                 }
-                change = c0, scale = s0;
                 __global double* sw = x;
                 x = nx, nx = sw;
                 if (bad) {
@@ -202,94 +199,93 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                 break;
             // -- doubling (solve_doubling): Cayley-transformed start --
             case S_DB_SETUP + 0: op = OP_SETUP_DB; state = S_DB_SETUP + 1; break;
-            case S_DB_SETUP + 1: op = OP_COPY, out = lu, a = dg; state = S_DB_SETUP + 2; break;
+            case S_DB_SETUP + 1: op = OP_COPY, out = lu, a = d_gamma; state = S_DB_SETUP + 2; break;
             case S_DB_SETUP + 2: lu_ret = S_DB_SETUP + 3; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_SETUP + 3: op = OP_IDENTITY, out = dinv; state = S_DB_SETUP + 4; break;
             case S_DB_SETUP + 4: op = OP_SOLVE, out = dinv; state = S_DB_SETUP + 5; break;
-            case S_DB_SETUP + 5: op = OP_COPY, out = lu, a = ag; state = S_DB_SETUP + 6; break;
+            case S_DB_SETUP + 5: op = OP_COPY, out = lu, a = a_gamma; state = S_DB_SETUP + 6; break;
             case S_DB_SETUP + 6: lu_ret = S_DB_SETUP + 7; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_SETUP + 7: op = OP_IDENTITY, out = ainv; state = S_DB_SETUP + 8; break;
             case S_DB_SETUP + 8: op = OP_SOLVE, out = ainv; state = S_DB_SETUP + 9; break;
-            case S_DB_SETUP + 9: op = OP_GEMM, out = t, a = bb, b = dinv; state = S_DB_SETUP + 10; break;
+            case S_DB_SETUP + 9: op = OP_GEMM, out = t, a = riccati_b, b = dinv; state = S_DB_SETUP + 10; break;
             case S_DB_SETUP + 10: // A_g - B D_g^-1 C
-                op = OP_GEMM, mode = MODE_SUB, out = lu, base = ag, a = t, b = cc;
+                op = OP_GEMM, mode = MODE_SUB, out = lu, base = a_gamma, a = t, b = riccati_c;
                 state = S_DB_SETUP + 11;
                 break;
             case S_DB_SETUP + 11: lu_ret = S_DB_SETUP + 12; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_SETUP + 12: op = OP_IDENTITY, out = winv; state = S_DB_SETUP + 13; break;
             case S_DB_SETUP + 13: op = OP_SOLVE, out = winv; state = S_DB_SETUP + 14; break;
-            case S_DB_SETUP + 14: op = OP_GEMM, out = t, a = cc, b = ainv; state = S_DB_SETUP + 15; break;
+            case S_DB_SETUP + 14: op = OP_GEMM, out = t, a = riccati_c, b = ainv; state = S_DB_SETUP + 15; break;
             case S_DB_SETUP + 15: // D_g - C A_g^-1 B
-                op = OP_GEMM, mode = MODE_SUB, out = lu, base = dg, a = t, b = bb;
+                op = OP_GEMM, mode = MODE_SUB, out = lu, base = d_gamma, a = t, b = riccati_b;
                 state = S_DB_SETUP + 16;
                 break;
             case S_DB_SETUP + 16: lu_ret = S_DB_SETUP + 17; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_SETUP + 17: op = OP_IDENTITY, out = vinv; state = S_DB_SETUP + 18; break;
             case S_DB_SETUP + 18: op = OP_SOLVE, out = vinv; state = S_DB_SETUP + 19; break;
             case S_DB_SETUP + 19: op = OP_EF; state = S_DB_SETUP + 20; break;
-            case S_DB_SETUP + 20: op = OP_GEMM, out = t, a = dinv, b = cc; state = S_DB_SETUP + 21; break;
+            case S_DB_SETUP + 20: op = OP_GEMM, out = t, a = dinv, b = riccati_c; state = S_DB_SETUP + 21; break;
             case S_DB_SETUP + 21: // G0 = 2g (D_g^-1 C W^-1)
-                op = OP_GEMM, mode = MODE_SCALE, s = g2, out = gm, a = t, b = winv;
+                op = OP_GEMM, mode = MODE_SCALE, s = g2, out = g_k, a = t, b = winv;
                 state = S_DB_SETUP + 22;
                 break;
-            case S_DB_SETUP + 22: op = OP_GEMM, out = t, a = winv, b = bb; state = S_DB_SETUP + 23; break;
+            case S_DB_SETUP + 22: op = OP_GEMM, out = t, a = winv, b = riccati_b; state = S_DB_SETUP + 23; break;
             case S_DB_SETUP + 23: // H0 = 2g (W^-1 B D_g^-1)
-                op = OP_GEMM, mode = MODE_SCALE, s = g2, out = hm, a = t, b = dinv;
+                op = OP_GEMM, mode = MODE_SCALE, s = g2, out = h_k, a = t, b = dinv;
                 it = 0;
                 state = S_DB_STEP;
                 break;
             // -- one doubling step --
             case S_DB_STEP + 0:
                 ++it;
-                if (it > DOUBLING_STEPS) {
-                    iterations = DOUBLING_STEPS + sweeps;
-                    result = hm;
+                if (it > AMB_DOUBLING_STEPS) {
+                    iterations = AMB_DOUBLING_STEPS + sweeps;
+                    result = h_k;
                     state = S_OUTPUT;
                     break;
                 }
-                op = OP_COPY, out = z, ldo = 2 * n, a = e; // Z = [E, .]
+                op = OP_COPY, out = z, ldo = 2 * n, a = e_k; // Z = [E, .]
                 state = S_DB_STEP + 1;
                 break;
             case S_DB_STEP + 1: // Z = [E, G F]
-                op = OP_GEMM, out = z + n, ldo = 2 * n, a = gm, b = f;
+                op = OP_GEMM, out = z + n, ldo = 2 * n, a = g_k, b = f_k;
                 state = S_DB_STEP + 2;
                 break;
-            case S_DB_STEP + 2: op = OP_GEMM, mode = MODE_EYE_MINUS, out = lu, a = gm, b = hm; state = S_DB_STEP + 3; break;
+            case S_DB_STEP + 2: op = OP_GEMM, mode = MODE_EYE_MINUS, out = lu, a = g_k, b = h_k; state = S_DB_STEP + 3; break;
             case S_DB_STEP + 3: lu_ret = S_DB_STEP + 4; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_STEP + 4: op = OP_SOLVE, out = z, ldo = 2 * n, cols = 2 * n; state = S_DB_STEP + 5; break;
-            case S_DB_STEP + 5: op = OP_COPY, out = y, ldo = 2 * n, a = f; state = S_DB_STEP + 6; break;
+            case S_DB_STEP + 5: op = OP_COPY, out = y, ldo = 2 * n, a = f_k; state = S_DB_STEP + 6; break;
             case S_DB_STEP + 6: // Y = [F, H E]
-                op = OP_GEMM, out = y + n, ldo = 2 * n, a = hm, b = e;
+                op = OP_GEMM, out = y + n, ldo = 2 * n, a = h_k, b = e_k;
                 state = S_DB_STEP + 7;
                 break;
-            case S_DB_STEP + 7: op = OP_GEMM, mode = MODE_EYE_MINUS, out = lu, a = hm, b = gm; state = S_DB_STEP + 8; break;
+            case S_DB_STEP + 7: op = OP_GEMM, mode = MODE_EYE_MINUS, out = lu, a = h_k, b = g_k; state = S_DB_STEP + 8; break;
             case S_DB_STEP + 8: lu_ret = S_DB_STEP + 9; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_STEP + 9: op = OP_SOLVE, out = y, ldo = 2 * n, cols = 2 * n; state = S_DB_STEP + 10; break;
-            case S_DB_STEP + 10: op = OP_GEMM, out = e1, a = e, b = z, ldb = 2 * n; state = S_DB_STEP + 11; break;
+            case S_DB_STEP + 10: op = OP_GEMM, out = e_next, a = e_k, b = z, ldb = 2 * n; state = S_DB_STEP + 11; break;
             case S_DB_STEP + 11:
-                op = OP_GEMM, mode = MODE_ADD, out = g1, base = gm, a = e, b = z + n, ldb = 2 * n;
+                op = OP_GEMM, mode = MODE_ADD, out = g_next, base = g_k, a = e_k, b = z + n, ldb = 2 * n;
                 state = S_DB_STEP + 12;
                 break;
-            case S_DB_STEP + 12: op = OP_GEMM, out = f1, a = f, b = y, ldb = 2 * n; state = S_DB_STEP + 13; break;
+            case S_DB_STEP + 12: op = OP_GEMM, out = f_next, a = f_k, b = y, ldb = 2 * n; state = S_DB_STEP + 13; break;
             case S_DB_STEP + 13:
-                op = OP_GEMM, mode = MODE_ADD, out = h1, base = hm, a = f, b = y + n, ldb = 2 * n;
+                op = OP_GEMM, mode = MODE_ADD, out = h_next, base = h_k, a = f_k, b = y + n, ldb = 2 * n;
                 state = S_DB_STEP + 14;
                 break;
             case S_DB_STEP + 14: op = OP_DIFF; state = S_DB_DECIDE; break;
             case S_DB_DECIDE: {
-                double c0 = 0.0, s0 = 0.0;
+                double change = 0.0, scale = 0.0;
                 int bad = 0;
                 for (int q = 0; q < lsz; ++q) {
-                    c0 = fmax(c0, part_a[q]);
-                    s0 = fmax(s0, part_b[q]);
+                    change = fmax(change, part_a[q]);
+                    scale = fmax(scale, part_b[q]);
                     bad |= part_i[q];
                 }
-                change = c0, scale = s0;
                 __global double* sw;
-                sw = e, e = e1, e1 = sw;
-                sw = f, f = f1, f1 = sw;
-                sw = gm, gm = g1, g1 = sw;
-                sw = hm, hm = h1, h1 = sw;
+                sw = e_k, e_k = e_next, e_next = sw;
+                sw = f_k, f_k = f_next, f_next = sw;
+                sw = g_k, g_k = g_next, g_next = sw;
+                sw = h_k, h_k = h_next, h_next = sw;
                 if (bad) {
                     error = AMB_DOUBLING_DIVERGED;
                     iterations = it + sweeps;
@@ -297,7 +293,7 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                 } else if (change <= task.tolerance * scale) {
                     converged = 1;
                     iterations = it + sweeps;
-                    result = hm;
+                    result = h_k;
                     state = S_OUTPUT;
                 } else {
                     state = S_DB_STEP;
@@ -360,7 +356,7 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             for (int q = lid; q < total; q += lsz) {
                 const int i = q / n, j = q % n;
                 double acc = 0.0;
-                for (int k = 0; k < n; ++k) acc += a[i * lda + k] * b[k * ldb + j];
+                for (int k = 0; k < n; ++k) acc += a[i * n + k] * b[k * ldb + j];
                 double r = acc;
                 if (mode == MODE_ADD) r = base[i * n + j] + acc;
                 else if (mode == MODE_SCALE) r = s * acc;
@@ -373,24 +369,20 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
         } else if (op == OP_IDENTITY) {
             for (int q = lid; q < n2; q += lsz) out[q] = (q / n == q % n) ? 1.0 : 0.0;
         } else if (op == OP_SETUP_FP) {
-            for (int q = lid; q < n2; q += lsz) {
-                const int i = q / n, j = q % n;
-                left[q] = 0.5 * om * pp[q] * w[j] / mu[i];  // (w/2) M^-1 P+ W
-                right[q] = 0.5 * om * w[i] * pp[q] / mu[j]; // (w/2) W P+ M^-1
-                fc[q] = om * w[i] * pm[q] * w[j];
-                fb[q] = 0.25 * om * pm[q] / (mu[i] * mu[j]);
-                x[q] = 0.0;
-            }
+            for (int q = lid; q < n2; q += lsz)
+                amb_fixed_point_element(q / n, q % n, n, om, mu, w, phase_plus, phase_minus, sweep_left, sweep_right,
+                                        riccati_b, riccati_c, x);
         } else if (op == OP_SETUP_DB) {
             for (int q = lid; q < n2; q += lsz) {
                 const int i = q / n, j = q % n;
-                amb_doubling_element(i, j, n, om, g, conservative, ev1, mu, w, pp, pm, bb, cc, ag, dg);
+                amb_doubling_element(i, j, n, om, g, conservative, ev1, mu, w, phase_plus, phase_minus, riccati_b,
+                                     riccati_c, a_gamma, d_gamma);
             }
         } else if (op == OP_EF) {
             for (int q = lid; q < n2; q += lsz) {
                 const double eye = (q / n == q % n) ? 1.0 : 0.0;
-                e[q] = eye - g2 * vinv[q];
-                f[q] = eye - g2 * winv[q];
+                e_k[q] = eye - g2 * vinv[q];
+                f_k[q] = eye - g2 * winv[q];
             }
         } else if (op == OP_SWEEP) {
             double c0 = 0.0, s0 = 0.0;
@@ -398,11 +390,11 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             for (int q = lid; q < n2; q += lsz) {
                 const int i = q / n, j = q % n;
                 double lx = 0.0, xr = 0.0, xcx = 0.0;
-                for (int k = 0; k < n; ++k) lx += left[i * n + k] * x[k * n + j];
-                for (int k = 0; k < n; ++k) xr += x[i * n + k] * right[k * n + j];
+                for (int k = 0; k < n; ++k) lx += sweep_left[i * n + k] * x[k * n + j];
+                for (int k = 0; k < n; ++k) xr += x[i * n + k] * sweep_right[k * n + j];
                 for (int k = 0; k < n; ++k) xcx += t[i * n + k] * x[k * n + j];
-                double v = ((fb[q] + lx) + xr) + xcx;
-                v /= 1.0 / mu[i] + 1.0 / mu[j];
+                double v = ((riccati_b[q] + lx) + xr) + xcx;
+                v /= amb_fixed_point_divisor(mu[i], mu[j]);
                 nx[q] = v;
                 c0 = fmax(c0, fabs(v - x[q]));
                 s0 = fmax(s0, fabs(v));
@@ -413,9 +405,9 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             double c0 = 0.0, s0 = 0.0;
             int bad = 0;
             for (int q = lid; q < n2; q += lsz) {
-                c0 = fmax(c0, fabs(h1[q] - hm[q]));
-                s0 = fmax(s0, fabs(h1[q]));
-                bad |= !isfinite(h1[q]);
+                c0 = fmax(c0, fabs(h_next[q] - h_k[q]));
+                s0 = fmax(s0, fabs(h_next[q]));
+                bad |= !isfinite(h_next[q]);
             }
             part_a[lid] = c0, part_b[lid] = s0, part_i[lid] = bad;
         } else if (op == OP_LU_PIVOT) {
@@ -423,13 +415,13 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             double bv = -1.0, sv = 0.0;
             int bi = -1;
             if (lid == 0) {
-                sv = lu_a[k * n + k];
+                sv = lu[k * n + k];
                 bv = fabs(sv);
                 bi = k;
             }
             for (int i = k + lid; i < n; i += lsz) {
                 if (i == k) continue;
-                const double v = lu_a[i * n + k];
+                const double v = lu[i * n + k];
                 if (fabs(v) > bv) { // rows with NaN never win
                     bv = fabs(v), sv = v, bi = i;
                 }
@@ -440,19 +432,19 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             if (lid == 0) piv[k] = p;
             if (p != k) {
                 for (int j = lid; j < n; j += lsz) {
-                    const double tmp = lu_a[k * n + j];
-                    lu_a[k * n + j] = lu_a[p * n + j];
-                    lu_a[p * n + j] = tmp;
+                    const double tmp = lu[k * n + j];
+                    lu[k * n + j] = lu[p * n + j];
+                    lu[p * n + j] = tmp;
                 }
             }
         } else if (op == OP_LU_SCALE) {
-            for (int i = lu_k + 1 + lid; i < n; i += lsz) lu_a[i * n + lu_k] /= pivot;
+            for (int i = lu_k + 1 + lid; i < n; i += lsz) lu[i * n + lu_k] /= pivot;
         } else if (op == OP_LU_UPDATE) {
             const int k = lu_k - 1; // already advanced by the control
             const int rest = n - k - 1;
             for (int q = lid; q < rest * rest; q += lsz) {
                 const int i = k + 1 + q / rest, j = k + 1 + q % rest;
-                lu_a[i * n + j] -= lu_a[i * n + k] * lu_a[k * n + j];
+                lu[i * n + j] -= lu[i * n + k] * lu[k * n + j];
             }
         } else if (op == OP_SOLVE) {
             // (LU) X = B for B = out (n x cols, leading dimension ldo): each work-item whole columns.
@@ -481,8 +473,6 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
     }
 
     if (lid == 0) {
-        status[group].last_change = change;
-        status[group].scale = scale;
         status[group].iterations = iterations;
         status[group].converged = converged;
         status[group].error = error;

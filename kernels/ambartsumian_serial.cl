@@ -4,7 +4,9 @@
 // and LuFactor (src/brdf/core/linalg.cpp), loop for loop: products in i-k-j order skipping zero
 // a_ik, LU with the same pivot search and the same skipped zero multipliers, the same elementwise
 // passes. With FP_CONTRACT OFF every operation is the reference's, so results agree bit for bit
-// with a host build that does not contract either (and iteration counts exactly).
+// with a host build that does not contract either (and iteration counts exactly). The step limit,
+// the method switch and the element formulas come from shared/ambartsumian_rules.h, as the
+// reference's do.
 //
 // The same task, input, output, workspace and status layouts as kernels/ambartsumian.cl
 // (shared/ambartsumian_layout.h), so the host code (src/brdf/rte/cl_solver.cpp) is shared. On a CPU
@@ -14,9 +16,8 @@
 #pragma OPENCL FP_CONTRACT OFF
 
 #include "shared/ambartsumian_layout.h"
+#include "shared/ambartsumian_rules.h"
 #include "shared/ambartsumian_setup.h"
-
-#define DOUBLING_STEPS 100
 
 typedef __global double* gptr;
 typedef __global const double* gcptr;
@@ -134,14 +135,13 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
     const double om = task.omega;
     gcptr mu = input + task.input_offset;
     gcptr w = mu + n;
-    gcptr pp = w + n;
-    gcptr pm = pp + n2;
+    gcptr phase_plus = w + n;
+    gcptr phase_minus = phase_plus + n2;
     gptr x_out = output + task.output_offset;
     gptr ws = workspace + task.workspace_offset;
     const double g = task.gamma;
     int piv[AMB_MAX_N];
 
-    double change = 0.0, scale = 0.0;
     int iterations = 0, converged = 0, error = AMB_OK, detail = 0;
     int sweeps = 0;
     int run_doubling = 1;
@@ -150,50 +150,42 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
     // ---- fixed point (solve_fixed_point; solve_fast's capped first attempt) ----
     int cap = -1;
     if (task.method == AMB_FIXED_POINT) cap = task.max_iterations;
-    else if (task.method == AMB_FAST && !(task.m == 0 && om > 0.9)) cap = task.fast_sweeps;
+    else if (task.method == AMB_FAST && !amb_fast_starts_with_doubling(task.m, om)) cap = task.fast_sweeps;
     if (cap >= 0) {
         gptr x = ws;
         gptr nx = ws + n2;
         gptr xr = ws + 2 * n2;
-        gptr left = ws + 3 * n2;
-        gptr right = ws + 4 * n2;
-        gptr fc = ws + 5 * n2;
-        gptr fb = ws + 6 * n2;
+        gptr sweep_left = ws + 3 * n2;
+        gptr sweep_right = ws + 4 * n2;
+        gptr riccati_b = ws + 5 * n2;
+        gptr riccati_c = ws + 6 * n2;
         gptr t = ws + 7 * n2;
         gptr xcx = ws + 8 * n2;
-        for (int i = 0; i < n; ++i) {
-            for (int j = 0; j < n; ++j) {
-                const int q = i * n + j;
-                left[q] = 0.5 * om * pp[q] * w[j] / mu[i];  // (w/2) M^-1 P+ W
-                right[q] = 0.5 * om * w[i] * pp[q] / mu[j]; // (w/2) W P+ M^-1
-                fc[q] = om * w[i] * pm[q] * w[j];
-                fb[q] = 0.25 * om * pm[q] / (mu[i] * mu[j]);
-                x[q] = 0.0;
-            }
-        }
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j)
+                amb_fixed_point_element(i, j, n, om, mu, w, phase_plus, phase_minus, sweep_left, sweep_right,
+                                        riccati_b, riccati_c, x);
         int it;
         for (it = 1; it <= cap; ++it) {
             // next = ((B + left X) + X right) + (X C) X
-            mat_mul(nx, n, left, n, x, n, n);
-            for (int q = 0; q < n2; ++q) nx[q] = fb[q] + nx[q];
-            mat_mul(xr, n, x, n, right, n, n);
+            mat_mul(nx, n, sweep_left, n, x, n, n);
+            for (int q = 0; q < n2; ++q) nx[q] = riccati_b[q] + nx[q];
+            mat_mul(xr, n, x, n, sweep_right, n, n);
             mat_add(nx, xr, n, n);
-            mat_mul(t, n, x, n, fc, n, n);
+            mat_mul(t, n, x, n, riccati_c, n, n);
             mat_mul(xcx, n, t, n, x, n, n);
             mat_add(nx, xcx, n, n);
             for (int i = 0; i < n; ++i)
-                for (int j = 0; j < n; ++j) nx[i * n + j] /= 1.0 / mu[i] + 1.0 / mu[j];
-            double c0 = 0.0;
-            for (int q = 0; q < n2; ++q) c0 = fmax(c0, fabs(nx[q] - x[q]));
-            change = c0;
+                for (int j = 0; j < n; ++j) nx[i * n + j] /= amb_fixed_point_divisor(mu[i], mu[j]);
+            double change = 0.0;
+            for (int q = 0; q < n2; ++q) change = fmax(change, fabs(nx[q] - x[q]));
             gptr sw = x;
             x = nx, nx = sw;
             if (!all_finite(x, n2)) {
                 error = AMB_FIXED_POINT_DIVERGED;
                 break;
             }
-            scale = max_abs_of(x, n2);
-            if (change <= task.tolerance * scale) {
+            if (change <= task.tolerance * max_abs_of(x, n2)) {
                 converged = 1;
                 break;
             }
@@ -204,64 +196,62 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
         else sweeps = iterations; // solve_fast: switch to doubling
     }
 
-    // ---- doubling (solve_doubling) ----
+    // ---- doubling (solve_doubling): the SDA iterates E_k, F_k, G_k, H_k and the next ones (Guo,
+    // Lin and Xu 2006) ----
     if (run_doubling) {
-        gptr e = ws;
-        gptr f = ws + n2;
-        gptr gm = ws + 2 * n2;
-        gptr hm = ws + 3 * n2;
-        gptr e1 = ws + 4 * n2;
-        gptr f1 = ws + 5 * n2;
-        gptr g1 = ws + 6 * n2;
-        gptr h1 = ws + 7 * n2;
+        gptr e_k = ws;
+        gptr f_k = ws + n2;
+        gptr g_k = ws + 2 * n2;
+        gptr h_k = ws + 3 * n2;
+        gptr e_next = ws + 4 * n2;
+        gptr f_next = ws + 5 * n2;
+        gptr g_next = ws + 6 * n2;
+        gptr h_next = ws + 7 * n2;
         gptr z = ws + 8 * n2;  // n x 2n
         gptr y = ws + 10 * n2; // n x 2n
         gptr lu = ws + 12 * n2;
         gptr t = ws + 13 * n2;
         gptr t2 = ws + 14 * n2;
-        gptr ag = ws + 4 * n2;
-        gptr bb = ws + 5 * n2;
-        gptr cc = ws + 6 * n2;
-        gptr dg = ws + 7 * n2;
+        // The set-up's matrices (slots 4..11) until the first step overwrites them.
+        gptr a_gamma = ws + 4 * n2; // A + g I
+        gptr riccati_b = ws + 5 * n2;
+        gptr riccati_c = ws + 6 * n2;
+        gptr d_gamma = ws + 7 * n2; // D + g I
         gptr dinv = ws + 8 * n2;
         gptr ainv = ws + 9 * n2;
         gptr winv = ws + 10 * n2;
         gptr vinv = ws + 11 * n2;
-        const int conservative = task.m == 0 && om >= 1.0;
-        double ev1 = 0.0; // conservation shift normaliser, e . v1
-        if (conservative)
-            for (int i = 0; i < n; ++i) ev1 += 2.0 * w[i] * mu[i];
-        for (int i = 0; i < n; ++i) {
-            for (int j = 0; j < n; ++j) {
-                amb_doubling_element(i, j, n, om, g, conservative, ev1, mu, w, pp, pm, bb, cc, ag, dg);
-            }
-        }
-        int bad = -1;
+        const int conservative = amb_conservative(task.m, om);
+        const double ev1 = amb_shift_norm(conservative, n, mu, w);
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j)
+                amb_doubling_element(i, j, n, om, g, conservative, ev1, mu, w, phase_plus, phase_minus, riccati_b,
+                                     riccati_c, a_gamma, d_gamma);
         // dinv = D_g^-1, ainv = A_g^-1
-        mat_copy(lu, n, dg, n);
-        bad = lu_factor(lu, n, piv);
+        mat_copy(lu, n, d_gamma, n);
+        int bad = lu_factor(lu, n, piv);
         if (bad < 0) {
             mat_identity(dinv, n);
             lu_solve(lu, n, piv, dinv, n, n);
-            mat_copy(lu, n, ag, n);
+            mat_copy(lu, n, a_gamma, n);
             bad = lu_factor(lu, n, piv);
         }
         if (bad < 0) {
             mat_identity(ainv, n);
             lu_solve(lu, n, piv, ainv, n, n);
             // winv = (A_g - (B D_g^-1) C)^-1
-            mat_mul(t, n, bb, n, dinv, n, n);
-            mat_mul(t2, n, t, n, cc, n, n);
-            for (int q = 0; q < n2; ++q) lu[q] = ag[q] - t2[q];
+            mat_mul(t, n, riccati_b, n, dinv, n, n);
+            mat_mul(t2, n, t, n, riccati_c, n, n);
+            for (int q = 0; q < n2; ++q) lu[q] = a_gamma[q] - t2[q];
             bad = lu_factor(lu, n, piv);
         }
         if (bad < 0) {
             mat_identity(winv, n);
             lu_solve(lu, n, piv, winv, n, n);
             // vinv = (D_g - (C A_g^-1) B)^-1
-            mat_mul(t, n, cc, n, ainv, n, n);
-            mat_mul(t2, n, t, n, bb, n, n);
-            for (int q = 0; q < n2; ++q) lu[q] = dg[q] - t2[q];
+            mat_mul(t, n, riccati_c, n, ainv, n, n);
+            mat_mul(t2, n, t, n, riccati_b, n, n);
+            for (int q = 0; q < n2; ++q) lu[q] = d_gamma[q] - t2[q];
             bad = lu_factor(lu, n, piv);
         }
         if (bad >= 0) {
@@ -273,53 +263,51 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
             const double g2 = 2.0 * g;
             for (int q = 0; q < n2; ++q) {
                 const double eye = (q / n == q % n) ? 1.0 : 0.0;
-                e[q] = eye - g2 * vinv[q];
-                f[q] = eye - g2 * winv[q];
+                e_k[q] = eye - g2 * vinv[q];
+                f_k[q] = eye - g2 * winv[q];
             }
-            mat_mul(t, n, dinv, n, cc, n, n); // G0 = 2g ((D_g^-1 C) W^-1)
-            mat_mul(gm, n, t, n, winv, n, n);
-            for (int q = 0; q < n2; ++q) gm[q] = g2 * gm[q];
-            mat_mul(t, n, winv, n, bb, n, n); // H0 = 2g ((W^-1 B) D_g^-1)
-            mat_mul(hm, n, t, n, dinv, n, n);
-            for (int q = 0; q < n2; ++q) hm[q] = g2 * hm[q];
+            mat_mul(t, n, dinv, n, riccati_c, n, n); // G0 = 2g ((D_g^-1 C) W^-1)
+            mat_mul(g_k, n, t, n, winv, n, n);
+            for (int q = 0; q < n2; ++q) g_k[q] = g2 * g_k[q];
+            mat_mul(t, n, winv, n, riccati_b, n, n); // H0 = 2g ((W^-1 B) D_g^-1)
+            mat_mul(h_k, n, t, n, dinv, n, n);
+            for (int q = 0; q < n2; ++q) h_k[q] = g2 * h_k[q];
 
             int it;
-            for (it = 1; it <= DOUBLING_STEPS; ++it) {
+            for (it = 1; it <= AMB_DOUBLING_STEPS; ++it) {
                 // Z = [E, G F], solved with I - G H; Y = [F, H E], solved with I - H G.
-                mat_copy(z, 2 * n, e, n);
-                mat_mul(z + n, 2 * n, gm, n, f, n, n);
-                mat_mul(lu, n, gm, n, hm, n, n);
+                mat_copy(z, 2 * n, e_k, n);
+                mat_mul(z + n, 2 * n, g_k, n, f_k, n, n);
+                mat_mul(lu, n, g_k, n, h_k, n, n);
                 for (int q = 0; q < n2; ++q) lu[q] = ((q / n == q % n) ? 1.0 : 0.0) - lu[q];
                 bad = lu_factor(lu, n, piv);
                 if (bad >= 0) break;
                 lu_solve(lu, n, piv, z, 2 * n, 2 * n);
-                mat_copy(y, 2 * n, f, n);
-                mat_mul(y + n, 2 * n, hm, n, e, n, n);
-                mat_mul(lu, n, hm, n, gm, n, n);
+                mat_copy(y, 2 * n, f_k, n);
+                mat_mul(y + n, 2 * n, h_k, n, e_k, n, n);
+                mat_mul(lu, n, h_k, n, g_k, n, n);
                 for (int q = 0; q < n2; ++q) lu[q] = ((q / n == q % n) ? 1.0 : 0.0) - lu[q];
                 bad = lu_factor(lu, n, piv);
                 if (bad >= 0) break;
                 lu_solve(lu, n, piv, y, 2 * n, 2 * n);
-                mat_mul(e1, n, e, n, z, 2 * n, n);
-                mat_mul(g1, n, e, n, z + n, 2 * n, n);
-                for (int q = 0; q < n2; ++q) g1[q] = gm[q] + g1[q];
-                mat_mul(f1, n, f, n, y, 2 * n, n);
-                mat_mul(h1, n, f, n, y + n, 2 * n, n);
-                for (int q = 0; q < n2; ++q) h1[q] = hm[q] + h1[q];
-                double c0 = 0.0;
-                for (int q = 0; q < n2; ++q) c0 = fmax(c0, fabs(h1[q] - hm[q]));
-                change = c0;
+                mat_mul(e_next, n, e_k, n, z, 2 * n, n);
+                mat_mul(g_next, n, e_k, n, z + n, 2 * n, n);
+                for (int q = 0; q < n2; ++q) g_next[q] = g_k[q] + g_next[q];
+                mat_mul(f_next, n, f_k, n, y, 2 * n, n);
+                mat_mul(h_next, n, f_k, n, y + n, 2 * n, n);
+                for (int q = 0; q < n2; ++q) h_next[q] = h_k[q] + h_next[q];
+                double change = 0.0;
+                for (int q = 0; q < n2; ++q) change = fmax(change, fabs(h_next[q] - h_k[q]));
                 gptr sw;
-                sw = e, e = e1, e1 = sw;
-                sw = f, f = f1, f1 = sw;
-                sw = gm, gm = g1, g1 = sw;
-                sw = hm, hm = h1, h1 = sw;
-                if (!all_finite(hm, n2)) {
+                sw = e_k, e_k = e_next, e_next = sw;
+                sw = f_k, f_k = f_next, f_next = sw;
+                sw = g_k, g_k = g_next, g_next = sw;
+                sw = h_k, h_k = h_next, h_next = sw;
+                if (!all_finite(h_k, n2)) {
                     error = AMB_DOUBLING_DIVERGED;
                     break;
                 }
-                scale = max_abs_of(hm, n2);
-                if (change <= task.tolerance * scale) {
+                if (change <= task.tolerance * max_abs_of(h_k, n2)) {
                     converged = 1;
                     break;
                 }
@@ -328,15 +316,13 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
                 error = AMB_SINGULAR;
                 detail = bad;
             }
-            iterations = min(it, DOUBLING_STEPS) + sweeps;
-            result = hm;
+            iterations = min(it, AMB_DOUBLING_STEPS) + sweeps;
+            result = h_k;
         }
     }
 
     if (error == AMB_OK)
         for (int q = 0; q < n2; ++q) x_out[q] = result[q];
-    status[id].last_change = change;
-    status[id].scale = scale;
     status[id].iterations = iterations;
     status[id].converged = converged;
     status[id].error = error;

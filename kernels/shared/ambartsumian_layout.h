@@ -13,7 +13,8 @@
 #define AMB_MAX_N 256
 /// Largest work-group size the kernel's local reduction arrays hold (a power of two).
 #define AMB_MAX_WG 256
-/// n x n matrices of workspace per task.
+/// n x n matrices of workspace per task: the kernels use slots 0..14 (the doubling's iterates, its
+/// two n x 2n right-hand sides, the LU and two products).
 #define AMB_WORKSPACE_MATRICES 16
 
 /// Task.method: the same numbering as brdf::rte::Method.
@@ -37,16 +38,14 @@ typedef struct AmbTask {
     brdf_i32 n;                ///< streams, 1..AMB_MAX_N
     brdf_i32 m;                ///< Fourier order
     brdf_i32 method;           ///< AMB_FIXED_POINT, AMB_DOUBLING or AMB_FAST
-    brdf_i32 max_iterations;   ///< fixed-point sweeps (doubling stops at 100 steps)
+    brdf_i32 max_iterations;   ///< fixed-point sweeps (doubling stops at AMB_DOUBLING_STEPS)
     brdf_i32 fast_sweeps;      ///< AMB_FAST: sweeps before switching to doubling
     brdf_i32 pad;
 } AmbTask;
 
 typedef struct AmbStatus {
-    brdf_f64 last_change; ///< max |X_k+1 - X_k| of the last step
-    brdf_f64 scale;       ///< max |X_k+1| of the last step
-    brdf_i32 iterations;  ///< as OrderSolution::iterations
-    brdf_i32 converged;   ///< 0 or 1
-    brdf_i32 error;       ///< AMB_OK or an error code
-    brdf_i32 detail;      ///< AMB_SINGULAR: the column of the zero pivot
+    brdf_i32 iterations; ///< as OrderSolution::iterations
+    brdf_i32 converged;  ///< 0 or 1
+    brdf_i32 error;      ///< AMB_OK or an error code
+    brdf_i32 detail;     ///< AMB_SINGULAR: the column of the zero pivot
 } AmbStatus;

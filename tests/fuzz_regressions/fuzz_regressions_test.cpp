@@ -2,8 +2,9 @@
 // README), replayed through the fuzzers' own entry points (tests/fuzz/entry_points.h). The file name
 // says which: "merl-*", "exr-*", "fourier-*", "spectral-*", "rgl-*", "spec-*". Each must be refused
 // with a brdf::Error or accepted; another exception fails the test, a crash or sanitizer report kills
-// it. The seed corpora (tests/data/fuzz/{merl,exr,fourier,spectral_exr,rgl,spec}) are replayed too,
-// so the entry points themselves stay tested.
+// it. The seed corpora (tests/data/fuzz/{merl,exr,fourier,spectral_exr,rgl}, tests/data/specs/good
+// for the spec parser, tests/data/bad for every reader) are replayed too, so the entry points
+// themselves stay tested.
 
 #include "entry_points.h"
 
@@ -15,6 +16,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -93,7 +95,26 @@ TEST(FuzzSeeds, EverySeedRunsThroughItsEntryPoint) {
     for (const fs::path& f : files(seeds / "rgl")) replay(&rgl, f);
     for (const fs::path& f : files(seeds / "fourier")) replay(&fourier, f);
     for (const fs::path& f : files(seeds / "spectral_exr")) replay(&spectral_exr, f);
-    for (const fs::path& f : files(seeds / "spec")) replay(&spec, f);
+    // The spec parser's seeds are the good specs of the parser tests, not a copy of them.
+    for (const fs::path& f : files(test::source_dir() / "tests/data/specs/good")) replay(&spec, f);
+    // tools/dev/fuzz.sh seeds every target with the malformed files of tests/data/bad too.
+    const fs::path bad = test::source_dir() / "tests/data/bad";
+    for (const fs::path& f : files(bad, "merl_")) replay(&merl, f);
+    for (const fs::path& f : files(bad, "exr_")) replay(&exr, f);
+    for (const fs::path& f : files(bad, "fourier_")) replay(&fourier, f);
+    for (const fs::path& f : files(bad, "spec_")) replay(&spec, f);
+}
+
+// Each seed lives in one place: no two seed files (nor a seed and a test's good or bad file) are
+// byte for byte the same.
+TEST(FuzzSeeds, NoSeedIsACopyOfAnother) {
+    std::map<std::string, fs::path> seen;
+    for (const char* folder : {"tests/data/fuzz", "tests/data/specs/good", "tests/data/bad"})
+        for (const auto& entry : fs::recursive_directory_iterator(test::source_dir() / folder)) {
+            if (!entry.is_regular_file() || entry.path().extension() == ".md") continue;
+            const auto [it, fresh] = seen.emplace(test::read_file(entry.path()), entry.path());
+            EXPECT_TRUE(fresh) << entry.path() << " is a copy of " << it->second;
+        }
 }
 
 // The entry points swallow nothing themselves: a malformed input reaches the test as a brdf::Error.

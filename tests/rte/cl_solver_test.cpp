@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -130,6 +131,83 @@ TEST_P(ClSolver, BatchMixesStreamCounts) {
     batch.push_back({"split m 0", make_order_problem(beta, 1.0, 0, split)});
     batch.push_back({"split m 2", make_order_problem(beta, 1.0, 2, split)});
     for (Method method : {Method::Doubling, Method::Fast, Method::FixedPoint}) compare_batch(batch, method, kernel());
+}
+
+// The stream counts the service uses at tight tolerances (settings_for: 64 at 1e-6, a cap of 128):
+// a few orders of the hardest media (the conservative m = 0, a forward peak, Rayleigh) against the
+// reference. Fewer orders than problems_for keeps this well under a minute on PoCL.
+std::vector<Labelled> large_problems(int streams) {
+    std::vector<Labelled> out;
+    const std::vector<std::pair<const char*, std::vector<double>>> media = {{"hg0.9", test::hg_beta(0.9, 400)},
+                                                                           {"rayleigh", test::rayleigh_beta()}};
+    for (const auto& [name, beta] : media)
+        for (double omega : {0.9, 1.0}) {
+            ReflectionSettings settings;
+            settings.streams = streams;
+            const StackSetup setup = setup_reflection(Medium{omega, beta}, Interface{1.0}, settings);
+            std::vector<OrderProblem> all = order_problems(setup);
+            for (int m : {0, 1, 7})
+                if (m < static_cast<int>(all.size()))
+                    out.push_back({std::string(name) + " omega " + std::to_string(omega) + " N " +
+                                       std::to_string(streams) + " m " + std::to_string(m),
+                                   std::move(all[static_cast<std::size_t>(m)])});
+        }
+    return out;
+}
+
+TEST_P(ClSolver, FastMatchesReferenceAt64And128Streams) {
+    for (int streams : {64, 128}) compare_batch(large_problems(streams), Method::Fast, kernel());
+}
+
+// A batch whose workspace exceeds the launch budget is split (launch_ranges) into several launches;
+// every answer equals the one the problem gets solved alone, bit for bit (the same kernel on the
+// same data), in the batch's order.
+TEST_P(ClSolver, SplitLaunchesGiveTheAnswersOfSolvingEachAlone) {
+    std::vector<OrderProblem> problems;
+    const std::vector<double> beta = test::hg_beta(0.7, 40);
+    for (int n : {6, 12, 9, 16, 4, 12, 20, 8})
+        for (int m : {0, 2}) problems.push_back(make_order_problem(beta, m == 0 ? 1.0 : 0.95, m, gauss_streams(n)));
+    // Room for about three of the middle-sized problems per launch.
+    const std::size_t budget = 3 * opencl_workspace_bytes(12);
+    const auto ranges = launch_ranges(problems, budget);
+    ASSERT_GE(ranges.size(), 4u);
+    std::size_t next = 0;
+    for (const auto& [first, last] : ranges) {
+        EXPECT_EQ(first, next);
+        EXPECT_LT(first, last);
+        std::size_t bytes = 0;
+        for (std::size_t k = first; k < last; ++k) bytes += opencl_workspace_bytes(problems[k].streams.size());
+        EXPECT_TRUE(bytes <= budget || last == first + 1) << first << ".." << last;
+        if (last < problems.size()) // greedy: the next problem would not have fitted
+            EXPECT_GT(bytes + opencl_workspace_bytes(problems[last].streams.size()), budget);
+        next = last;
+    }
+    EXPECT_EQ(next, problems.size());
+
+    const SolveControl control;
+    const std::vector<OrderSolution> split = solve_orders_opencl(problems, Method::Fast, control, kernel(), budget);
+    const std::vector<OrderSolution> whole = solve_orders_opencl(problems, Method::Fast, control, kernel());
+    ASSERT_EQ(split.size(), problems.size());
+    for (std::size_t k = 0; k < problems.size(); ++k) {
+        SCOPED_TRACE(k);
+        const std::vector<OrderProblem> one{problems[k]};
+        const OrderSolution alone = solve_orders_opencl(one, Method::Fast, control, kernel()).at(0);
+        EXPECT_EQ(max_abs_diff(split[k].x, alone.x), 0.0);
+        EXPECT_EQ(max_abs_diff(whole[k].x, alone.x), 0.0);
+        EXPECT_GT(max_abs(alone.x), 0.0);
+        EXPECT_EQ(split[k].iterations, alone.iterations);
+        EXPECT_EQ(split[k].converged, alone.converged);
+    }
+}
+
+TEST(ClSolverLaunches, OversizedProblemGetsItsOwnLaunch) {
+    std::vector<OrderProblem> problems;
+    for (int n : {4, 40, 4, 4}) problems.push_back(make_order_problem(std::vector<double>{1.0}, 0.5, 0, gauss_streams(n)));
+    const auto ranges = launch_ranges(problems, 2 * opencl_workspace_bytes(4));
+    const std::vector<std::pair<std::size_t, std::size_t>> expected{{0, 1}, {1, 2}, {2, 4}};
+    EXPECT_EQ(ranges, expected);
+    EXPECT_TRUE(launch_ranges({}, 1).empty());
+    EXPECT_EQ(opencl_workspace_bytes(10), 16u * 100u * sizeof(double));
 }
 
 TEST_P(ClSolver, EmptyBatch) {

@@ -3,9 +3,10 @@
 #   tools/dev/fuzz.sh [SECONDS]        (default 60 seconds per target)
 # Configures a clang-14 build in build-fuzz (-DBRDF_FUZZ=ON, AddressSanitizer + UBSan, the whole
 # project coverage-instrumented), builds fuzz_merl, fuzz_exr, fuzz_fourier, fuzz_spectral_exr,
-# fuzz_rgl and fuzz_spec, and runs each for SECONDS on its seed corpus
-# tests/data/fuzz/{merl,exr,fourier,spectral_exr,rgl,spec} (read only; new inputs go to
-# build-fuzz/corpus/NAME). A crash, hang, leak or sanitizer report stops that target, leaves the
+# fuzz_rgl and fuzz_spec, and runs each for SECONDS on its seed corpus (read only; new inputs go to
+# build-fuzz/corpus/NAME): tests/data/fuzz/{merl,exr,fourier,spectral_exr,rgl} for the readers,
+# tests/data/specs/good for the spec parser, and for every target the malformed files of
+# tests/data/bad (each seed lives in one place only). A crash, hang, leak or sanitizer report stops that target, leaves the
 # input in build-fuzz/artifacts/NAME/, and makes the script exit 1 after the others have run.
 # Keep each such input in tests/data/fuzz/regressions/ (named NAME-WHAT.ext, NAME in merl, exr,
 # fourier, spectral, spec): test_fuzz_regressions replays it in every build once the bug is fixed.
@@ -46,7 +47,9 @@ for name in merl exr fourier spectral_exr rgl spec; do
   [ "$name" = spectral_exr ] && args+=(-max_len=65536)
   [ "$name" = spec ] && args+=(-dict="$root/tests/fuzz/spec.dict" -max_len=8192)
   echo "== fuzz_$name: $seconds s" >&2
-  if ! "$build/bin/fuzz_$name" "${args[@]}" "$corpus" "$root/tests/data/fuzz/$name" \
+  seeds="$root/tests/data/fuzz/$name"
+  [ "$name" = spec ] && seeds="$root/tests/data/specs/good"
+  if ! "$build/bin/fuzz_$name" "${args[@]}" "$corpus" "$seeds" "$root/tests/data/bad" \
        > "$build/fuzz_$name.log" 2>&1; then
     failed+=("$name")
     echo "fuzz.sh: fuzz_$name found a problem: see $build/fuzz_$name.log and $artifacts/" >&2

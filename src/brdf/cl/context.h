@@ -2,10 +2,10 @@
 // OpenCL context, device selection and program building for the solvers' device side.
 //
 //   auto ctx = brdf::cl::Context::shared();               // throws DeviceError without a device
-//   ::cl::Program program = ctx->program("ambartsumian", "-DNMU=64");
+//   ::cl::Program program = ctx->program("ambartsumian");   // kernels/ambartsumian.cl
 //   cl_int err;
-//   ::cl::Kernel kernel(program, "solve", &err);
-//   brdf::cl::check(err, "create kernel 'solve'");
+//   ::cl::Kernel kernel(program, "ambartsumian_solve", &err);
+//   brdf::cl::check(err, "create kernel 'ambartsumian_solve'");
 //
 // Sources are kernels/NAME.cl plus kernels/shared/*.h, embedded at build time (adding a kernel:
 // list it in src/brdf/cl/CMakeLists.txt). The bindings do not throw; pass every cl_int to check().

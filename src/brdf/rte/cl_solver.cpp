@@ -33,13 +33,11 @@ static_assert(offsetof(AmbTask, method) == 56);
 static_assert(offsetof(AmbTask, max_iterations) == 60);
 static_assert(offsetof(AmbTask, fast_sweeps) == 64);
 static_assert(offsetof(AmbTask, pad) == 68);
-static_assert(sizeof(AmbStatus) == 32);
-static_assert(offsetof(AmbStatus, last_change) == 0);
-static_assert(offsetof(AmbStatus, scale) == 8);
-static_assert(offsetof(AmbStatus, iterations) == 16);
-static_assert(offsetof(AmbStatus, converged) == 20);
-static_assert(offsetof(AmbStatus, error) == 24);
-static_assert(offsetof(AmbStatus, detail) == 28);
+static_assert(sizeof(AmbStatus) == 16);
+static_assert(offsetof(AmbStatus, iterations) == 0);
+static_assert(offsetof(AmbStatus, converged) == 4);
+static_assert(offsetof(AmbStatus, error) == 8);
+static_assert(offsetof(AmbStatus, detail) == 12);
 static_assert(static_cast<int>(Method::FixedPoint) == AMB_FIXED_POINT);
 static_assert(static_cast<int>(Method::Doubling) == AMB_DOUBLING);
 static_assert(static_cast<int>(Method::Fast) == AMB_FAST);
@@ -48,6 +46,11 @@ static_assert(max_opencl_streams == AMB_MAX_N);
 namespace {
 
 constexpr std::size_t preferred_local_size = 64;
+// The cooperative kernel's local reduction arrays hold AMB_MAX_WG partials, one per work-item; the
+// local size chosen below is clamped to it.
+static_assert(preferred_local_size <= AMB_MAX_WG);
+// The kernels' workspace slots 0..14 (ambartsumian.cl, ambartsumian_serial.cl) fit what is allocated.
+static_assert(AMB_WORKSPACE_MATRICES >= 15);
 
 std::size_t floor_power_of_two(std::size_t v) {
     std::size_t p = 1;
@@ -200,8 +203,29 @@ ClSolverKernel resolve_solver_kernel(ClSolverKernel requested) {
     return resolve_on(*brdf::cl::Context::shared(), requested);
 }
 
+std::size_t opencl_workspace_bytes(int n) { return workspace_doubles(n) * sizeof(double); }
+
+std::vector<std::pair<std::size_t, std::size_t>> launch_ranges(std::span<const OrderProblem> problems,
+                                                               std::size_t budget_bytes) {
+    std::vector<std::pair<std::size_t, std::size_t>> ranges;
+    std::size_t first = 0;
+    while (first < problems.size()) {
+        std::size_t last = first, bytes = 0;
+        while (last < problems.size()) {
+            const std::size_t b = opencl_workspace_bytes(problems[last].streams.size());
+            if (last > first && bytes + b > budget_bytes) break;
+            bytes += b;
+            ++last;
+        }
+        ranges.emplace_back(first, last);
+        first = last;
+    }
+    return ranges;
+}
+
 std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> problems, Method method,
-                                               const SolveControl& control, ClSolverKernel which) {
+                                               const SolveControl& control, ClSolverKernel which,
+                                               std::size_t workspace_budget_bytes) {
     if (method != Method::FixedPoint && method != Method::Doubling && method != Method::Fast)
         throw InputError("unknown solver method");
     for (std::size_t k = 0; k < problems.size(); ++k) validate(problems[k], k);
@@ -228,21 +252,12 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
     cl_ulong max_alloc = 0;
     brdf::cl::check(ctx->device().getInfo(CL_DEVICE_MAX_MEM_ALLOC_SIZE, &max_alloc),
                     "OpenCL order solver: query max allocation size");
-    const std::size_t budget = std::min<std::size_t>(static_cast<std::size_t>(max_alloc), std::size_t{1} << 30);
-
-    // Split into launches whose workspace fits one allocation.
-    std::size_t first = 0;
-    while (first < problems.size()) {
-        std::size_t last = first, bytes = 0;
-        while (last < problems.size()) {
-            const std::size_t b = workspace_doubles(problems[last].streams.size()) * sizeof(double);
-            if (last > first && bytes + b > budget) break;
-            bytes += b;
-            ++last;
-        }
+    const std::size_t budget = workspace_budget_bytes > 0
+                                   ? workspace_budget_bytes
+                                   : std::min<std::size_t>(static_cast<std::size_t>(max_alloc), std::size_t{1} << 30);
+    // Launches whose workspace fits one allocation.
+    for (const auto& [first, last] : launch_ranges(problems, budget))
         solve_range(*ctx, kernel, local_size, problems, first, last, method, control, out);
-        first = last;
-    }
     return out;
 }
 

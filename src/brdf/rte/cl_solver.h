@@ -7,7 +7,9 @@
 
 #include <brdf/rte/order_solver.h>
 
+#include <cstddef>
 #include <span>
+#include <utility>
 #include <string_view>
 #include <vector>
 
@@ -34,10 +36,21 @@ ClSolverKernel resolve_solver_kernel(ClSolverKernel requested = ClSolverKernel::
 /// equal to the C++ reference to ~1e-12 relative. Throws DeviceError on device failure; NumericalError
 /// (naming the order m and omega) when a problem diverges or an LU pivot is zero, as the reference does.
 /// InputError for a problem with more than max_opencl_streams streams or inconsistent sizes.
-/// Uses brdf::cl::Context::shared(); very large batches are split into several launches so that the
-/// workspace (16 n^2 doubles per problem) fits the device's allocation limit.
+/// Uses brdf::cl::Context::shared(); very large batches are split into several launches
+/// (launch_ranges) so that the workspace fits one allocation: `workspace_budget_bytes`, or when 0 the
+/// device's CL_DEVICE_MAX_MEM_ALLOC_SIZE capped at 1 GiB.
 std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> problems, Method method,
                                                const SolveControl& control,
-                                               ClSolverKernel kernel = ClSolverKernel::Automatic);
+                                               ClSolverKernel kernel = ClSolverKernel::Automatic,
+                                               std::size_t workspace_budget_bytes = 0);
+
+/// Bytes of kernel workspace one problem of n streams needs (AMB_WORKSPACE_MATRICES n^2 doubles).
+std::size_t opencl_workspace_bytes(int n);
+
+/// The launches a batch is split into: consecutive [first, last) ranges covering every problem in
+/// order, each as long as its workspace stays within `budget_bytes` (a problem larger than the
+/// budget alone gets a launch of its own).
+std::vector<std::pair<std::size_t, std::size_t>> launch_ranges(std::span<const OrderProblem> problems,
+                                                               std::size_t budget_bytes);
 
 } // namespace brdf::rte

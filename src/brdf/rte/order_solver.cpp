@@ -10,8 +10,6 @@
 namespace brdf::rte {
 namespace {
 
-constexpr int max_doubling_steps = 100;
-
 bool finite(const Matrix& x) {
     return std::all_of(x.data().begin(), x.data().end(), [](double v) { return std::isfinite(v); });
 }
@@ -44,6 +42,8 @@ std::string_view to_string(Method method) {
     return "?";
 }
 
+bool OrderProblem::conservative() const { return amb_conservative(m, omega) != 0; }
+
 OrderProblem make_order_problem(std::span<const double> beta, double omega, int m, const Streams& streams) {
     PhasePair p = phase_components(beta, m, streams.mu, streams.mu);
     return OrderProblem{m, omega, streams, std::move(p.plus), std::move(p.minus)};
@@ -57,9 +57,9 @@ RiccatiMatrices riccati_matrices(const OrderProblem& pr) {
     RiccatiMatrices r{Matrix(n, n), Matrix(n, n), Matrix(n, n), Matrix(n, n)};
     for (int i = 0; i < n; ++i) {
         for (int j = 0; j < n; ++j) {
-            r.b(i, j) = 0.25 * om * pr.p_minus(i, j) / (mu[i] * mu[j]);
-            r.c(i, j) = om * w[i] * pr.p_minus(i, j) * w[j];
-            r.d(i, j) = (i == j ? 1.0 / mu[i] : 0.0) - 0.5 * om * w[i] * pr.p_plus(i, j) / mu[j];
+            r.b(i, j) = amb_riccati_b(om, pr.p_minus(i, j), mu[i], mu[j]);
+            r.c(i, j) = amb_riccati_c(om, w[i], pr.p_minus(i, j), w[j]);
+            r.d(i, j) = amb_riccati_d(i == j, om, mu[i], mu[j], w[i], pr.p_plus(i, j));
         }
     }
     r.a = transpose(r.d);
@@ -85,10 +85,10 @@ OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& cont
     Matrix left(n, n), right(n, n), c(n, n), b(n, n);
     for (int i = 0; i < n; ++i) {
         for (int j = 0; j < n; ++j) {
-            left(i, j) = 0.5 * om * pr.p_plus(i, j) * w[j] / mu[i];  // (w/2) M^-1 P+ W
-            right(i, j) = 0.5 * om * w[i] * pr.p_plus(i, j) / mu[j]; // (w/2) W P+ M^-1
-            c(i, j) = om * w[i] * pr.p_minus(i, j) * w[j];
-            b(i, j) = 0.25 * om * pr.p_minus(i, j) / (mu[i] * mu[j]);
+            left(i, j) = amb_fixed_point_left(om, pr.p_plus(i, j), w[j], mu[i]);
+            right(i, j) = amb_fixed_point_right(om, w[i], pr.p_plus(i, j), mu[j]);
+            c(i, j) = amb_riccati_c(om, w[i], pr.p_minus(i, j), w[j]);
+            b(i, j) = amb_riccati_b(om, pr.p_minus(i, j), mu[i], mu[j]);
         }
     }
     OrderSolution s;
@@ -96,7 +96,7 @@ OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& cont
     for (s.iterations = 1; s.iterations <= control.max_iterations; ++s.iterations) {
         Matrix next = b + left * s.x + s.x * right + s.x * c * s.x;
         for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) next(i, j) /= 1.0 / mu[i] + 1.0 / mu[j];
+            for (int j = 0; j < n; ++j) next(i, j) /= amb_fixed_point_divisor(mu[i], mu[j]);
         const double change = max_abs_diff(next, s.x);
         s.x = std::move(next);
         if (!finite(s.x)) throw NumericalError(cat("fixed-point iteration diverged at order ", pr.m));
@@ -116,15 +116,16 @@ OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control
     if (pr.conservative()) {
         // H = [D -C; B -A] has the right null vector v = [2 W mu; e] at w = 1, m = 0 (it encodes
         // sum_j w_j (p+ + p-)_ij = 2). H + eta v p^T with p = [e; 0] / (e . v1) moves that eigenvalue
-        // from 0 to eta and leaves the invariant subspace [I; X] alone: only D and B change.
-        std::vector<double> v1(static_cast<std::size_t>(n));
+        // from 0 to eta (AMB_CONSERVATIVE_SHIFT) and leaves the invariant subspace [I; X] alone: only
+        // D and B change.
+        const auto& mu = pr.streams.mu;
+        const auto& w = pr.streams.w;
         double ev1 = 0.0;
-        for (int i = 0; i < n; ++i) ev1 += (v1[i] = 2.0 * pr.streams.w[i] * pr.streams.mu[i]);
-        const double eta = 1.0;
+        for (int i = 0; i < n; ++i) ev1 += amb_shift_vector(w[i], mu[i]);
         for (int i = 0; i < n; ++i) {
             for (int j = 0; j < n; ++j) {
-                r.d(i, j) += eta * v1[i] / ev1;
-                r.b(i, j) += eta / ev1;
+                r.d(i, j) += amb_shift_d(w[i], mu[i], ev1);
+                r.b(i, j) += amb_shift_b(ev1);
             }
         }
     }
@@ -139,32 +140,33 @@ OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control
     const Matrix ainv = solve(a_g, eye);
     const Matrix winv = solve(a_g - r.b * dinv * r.c, eye);
     const Matrix vinv = solve(d_g - r.c * ainv * r.b, eye);
-    Matrix e = eye - 2.0 * g * vinv;
-    Matrix f = eye - 2.0 * g * winv;
-    Matrix gm = 2.0 * g * (dinv * r.c * winv);
-    Matrix hm = 2.0 * g * (winv * r.b * dinv);
+    Matrix e_k = eye - 2.0 * g * vinv;
+    Matrix f_k = eye - 2.0 * g * winv;
+    Matrix g_k = 2.0 * g * (dinv * r.c * winv);
+    Matrix h_k = 2.0 * g * (winv * r.b * dinv);
 
     OrderSolution s;
     for (s.iterations = 1; s.iterations <= max_doubling_steps; ++s.iterations) {
-        // E1 = E (I - G H)^-1 E, G1 = G + E (I - G H)^-1 G F, and symmetrically for F and H.
-        Matrix z = side_by_side(e, gm * f);
-        LuFactor(eye - gm * hm).solve(z);
-        Matrix y = side_by_side(f, hm * e);
-        LuFactor(eye - hm * gm).solve(y);
-        Matrix e1 = e * columns(z, 0, n);
-        Matrix g1 = gm + e * columns(z, n, n);
-        Matrix f1 = f * columns(y, 0, n);
-        Matrix h1 = hm + f * columns(y, n, n);
-        const double change = max_abs_diff(h1, hm);
-        e = std::move(e1), f = std::move(f1), gm = std::move(g1), hm = std::move(h1);
-        if (!finite(hm)) throw NumericalError(cat("doubling diverged at order ", pr.m, ", omega ", pr.omega));
-        if (change <= control.tolerance * max_abs(hm)) {
+        // One SDA step: E_k+1 = E_k (I - G_k H_k)^-1 E_k, G_k+1 = G_k + E_k (I - G_k H_k)^-1 G_k F_k, and
+        // symmetrically F_k+1, H_k+1 with (I - H_k G_k); H_k -> X.
+        Matrix z = side_by_side(e_k, g_k * f_k);
+        LuFactor(eye - g_k * h_k).solve(z);
+        Matrix y = side_by_side(f_k, h_k * e_k);
+        LuFactor(eye - h_k * g_k).solve(y);
+        Matrix e_next = e_k * columns(z, 0, n);
+        Matrix g_next = g_k + e_k * columns(z, n, n);
+        Matrix f_next = f_k * columns(y, 0, n);
+        Matrix h_next = h_k + f_k * columns(y, n, n);
+        const double change = max_abs_diff(h_next, h_k);
+        e_k = std::move(e_next), f_k = std::move(f_next), g_k = std::move(g_next), h_k = std::move(h_next);
+        if (!finite(h_k)) throw NumericalError(cat("doubling diverged at order ", pr.m, ", omega ", pr.omega));
+        if (change <= control.tolerance * max_abs(h_k)) {
             s.converged = true;
             break;
         }
     }
     s.iterations = std::min(s.iterations, max_doubling_steps);
-    s.x = std::move(hm);
+    s.x = std::move(h_k);
     s.residual = riccati_residual(riccati_matrices(pr), s.x);
     return s;
 }
@@ -174,7 +176,7 @@ OrderSolution solve_fast(const OrderProblem& problem, const SolveControl& contro
     // steps: the sweeps win whenever they converge within about 30 (a failed try costs about a third of
     // a doubling solve), which m >= 1 nearly always does (m = 1 at albedo 1 needs 13 to 25).
     int sweeps = 0;
-    if (!(problem.m == 0 && problem.omega > 0.9)) {
+    if (!amb_fast_starts_with_doubling(problem.m, problem.omega)) {
         SolveControl capped = control;
         capped.max_iterations = control.fast_sweeps;
         OrderSolution s = solve_fixed_point(problem, capped);

@@ -15,13 +15,19 @@
 #include <brdf/core/linalg.h>
 #include <brdf/rte/streams.h>
 
+#include <shared/ambartsumian_rules.h>
+
 #include <string_view>
 
 namespace brdf::rte {
 
+/// Doubling steps before solve_doubling gives up (its convergence is quadratic: about 14 steps).
+/// The rules shared with the kernels live in kernels/shared/ambartsumian_rules.h.
+inline constexpr int max_doubling_steps = AMB_DOUBLING_STEPS;
+
 /// Fast (the default) runs the fixed point for orders that converge in a few sweeps (m >= 1, or low
 /// albedo) and switches to doubling when it does not converge within `fast_sweeps`; m = 0 at
-/// albedo > 0.9 goes straight to doubling.
+/// albedo > AMB_FAST_DOUBLING_ALBEDO (0.9) goes straight to doubling.
 enum class Method { FixedPoint, Doubling, Fast };
 std::string_view to_string(Method method);
 
@@ -32,7 +38,7 @@ struct OrderProblem {
     Matrix p_plus;        ///< p^m(mu_i, mu_j)
     Matrix p_minus;       ///< p^m(-mu_i, mu_j)
     /// True at w = 1, m = 0: the equation is critical and conserves energy exactly.
-    bool conservative() const { return m == 0 && omega >= 1.0; }
+    bool conservative() const;
 };
 
 /// Builds the problem for order m from the (scaled) Legendre coefficients.
@@ -45,7 +51,7 @@ RiccatiMatrices riccati_matrices(const OrderProblem& problem);
 
 struct SolveControl {
     double tolerance = 1e-13;    ///< stop when max |X_k+1 - X_k| <= tolerance * max |X_k+1|
-    int max_iterations = 100000; ///< fixed point; doubling stops at 100 steps whatever this says
+    int max_iterations = 100000; ///< fixed point; doubling stops at max_doubling_steps whatever this says
     double gamma = 1.0;          ///< doubling's Cayley parameter (order 1 keeps full accuracy, docs/physics.md)
     int fast_sweeps = 30;        ///< Method::Fast: fixed-point sweeps before switching to doubling
 };

@@ -1,0 +1,86 @@
+// settings_for (src/brdf/model/model.cpp) and the stream choice of solve_material: for a
+// forward-peaked medium the streams chosen for a tolerance must meet that tolerance against a much
+// finer solve (2 N + 16 streams, solver and order tolerances far below the requested one),
+// over the directions the tables cover; and settings_for itself must be consistent (tighter
+// tolerance: no fewer streams, a cap no lower, finer solver and order tolerances).
+
+#include <brdf/material/spec.h>
+#include <brdf/model/model.h>
+#include <test_support.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace brdf::test {
+namespace {
+
+constexpr double deg = std::numbers::pi / 180.0;
+
+material::MaterialSpec spec_of(const char* json, const char* accuracy) {
+    auto j = nlohmann::json::parse(json);
+    j["name"] = "streams";
+    j["accuracy"] = accuracy;
+    return material::parse_specs(j, "stream_choice_test").at(0);
+}
+
+// Worst relative BRDF difference, small values on the scale 1e-3 / pi (a thousandth of a white
+// Lambertian), zenith angles up to 85 degrees.
+double worst_difference(const model::SolvedMaterial& a, const model::SolvedMaterial& ref) {
+    double worst = 0.0;
+    for (double ti : {0.0, 20.0, 40.0, 60.0, 75.0, 85.0})
+        for (double to : {0.0, 20.0, 40.0, 60.0, 75.0, 85.0})
+            for (double phi : {0.0, 45.0, 90.0, 135.0, 180.0}) {
+                const auto f = a.brdf(ti * deg, to * deg, phi * deg), r = ref.brdf(ti * deg, to * deg, phi * deg);
+                for (int k = 0; k < 3; ++k)
+                    worst = std::max(worst, std::abs(f[k] - r[k]) / std::max(r[k], 1e-3 / std::numbers::pi));
+            }
+    return worst;
+}
+
+TEST(StreamChoice, ChosenStreamsMeetTheToleranceForAForwardPeakedMedium) {
+    const char* medium = R"({"medium": {"albedo": 0.98, "phase": {"type": "henyey_greenstein", "g": 0.85}}})";
+    for (const char* accuracy : {"draft", "default"}) {
+        SCOPED_TRACE(accuracy);
+        const material::MaterialSpec spec = spec_of(medium, accuracy);
+        const model::SolvedMaterial chosen = model::solve_material(spec, model::Device::Cpu);
+        const double tolerance = chosen.settings.tolerance;
+        ASSERT_LE(chosen.error_estimate, tolerance) << "the stream cap stopped the choice short";
+
+        model::NumericalSettings fine = model::settings_for(tolerance);
+        fine.streams = fine.max_streams = 2 * chosen.settings.streams + 16;
+        fine.solver_tolerance = 1e-12;
+        fine.order_tolerance = 1e-2 * tolerance;
+        const model::SolvedMaterial reference = model::solve_material(spec, model::Device::Cpu, fine);
+        ASSERT_EQ(reference.settings.streams, fine.streams);
+
+        const double worst = worst_difference(chosen, reference);
+        std::printf("%-8s tolerance %.0e: %d streams chosen (start %d), estimate %.2e, against %d streams %.2e\n",
+                    accuracy, tolerance, chosen.settings.streams, model::settings_for(tolerance).streams,
+                    chosen.error_estimate, fine.streams, worst);
+        EXPECT_LE(worst, tolerance);
+    }
+}
+
+TEST(StreamChoice, SettingsTightenWithTheTolerance) {
+    const double tolerances[] = {3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 1e-6, 1e-7};
+    model::NumericalSettings previous = model::settings_for(tolerances[0]);
+    for (double t : tolerances) {
+        SCOPED_TRACE(t);
+        const model::NumericalSettings s = model::settings_for(t);
+        EXPECT_EQ(s.tolerance, t);
+        EXPECT_GE(s.streams, previous.streams);
+        EXPECT_GE(s.max_streams, previous.max_streams);
+        EXPECT_LE(s.streams, s.max_streams);
+        EXPECT_LE(s.order_tolerance, t);
+        EXPECT_LE(s.solver_tolerance, 1e-3 * t + 1e-13); // iteration error far below the BRDF's
+        EXPECT_LE(s.solver_tolerance, previous.solver_tolerance);
+        EXPECT_GE(s.table_grid, previous.table_grid);
+        previous = s;
+    }
+}
+
+} // namespace
+} // namespace brdf::test
