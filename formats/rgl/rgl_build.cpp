@@ -367,4 +367,34 @@ RglBsdf make_rgl_bsdf(const RglBrdfCallback& brdf, const RglOptions& options) {
     return out;
 }
 
+RglBsdf rgl_rgb_from_spectral(const RglBsdf& spectral, const std::vector<std::array<double, 3>>& weights) {
+    if (!spectral.spectral())
+        throw InputError("rgl_rgb_from_spectral: the file is not spectral (no wavelengths)");
+    const std::size_t channels = spectral.channels();
+    if (weights.size() != channels)
+        throw InputError(cat("rgl_rgb_from_spectral: ", weights.size(), " colour weights for ", channels,
+                             " wavelengths"));
+    for (const auto& w : weights)
+        for (double v : w)
+            if (!std::isfinite(v)) throw InputError(cat("rgl_rgb_from_spectral: colour weight ", v, " is not finite"));
+    const std::vector<std::size_t>& shape = spectral.values.shape;
+    if (shape.size() != 5 || shape[2] != channels || spectral.values.values.size() != spectral.values.size())
+        throw InputError("rgl_rgb_from_spectral: the spectral samples do not match the wavelengths");
+
+    RglBsdf out = spectral;
+    out.wavelengths.clear();
+    out.values.shape[2] = 3;
+    const std::size_t grids = shape[0] * shape[1], nn = shape[3] * shape[4];
+    out.values.values.assign(grids * 3 * nn, 0.0f);
+    for (std::size_t g = 0; g < grids; ++g)
+        for (std::size_t i = 0; i < nn; ++i)
+            for (std::size_t c = 0; c < 3; ++c) {
+                double sum = 0.0;
+                for (std::size_t l = 0; l < channels; ++l)
+                    sum += weights[l][c] * spectral.values.values[(g * channels + l) * nn + i];
+                out.values.values[(g * 3 + c) * nn + i] = static_cast<float>(std::max(sum, 0.0));
+            }
+    return out;
+}
+
 } // namespace brdf::formats

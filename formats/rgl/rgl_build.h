@@ -37,6 +37,7 @@
 #include <formats/halfdiff.h>
 #include <formats/rgl/rgl_bsdf.h>
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -84,5 +85,16 @@ std::string rgl_description(const std::string& generator, const std::string& spe
 /// out of range, NumericalError naming the channel, incidence and directions when the callback
 /// returns the wrong number of values, a negative or non-finite value.
 RglBsdf make_rgl_bsdf(const RglBrdfCallback& brdf, const RglOptions& options);
+
+/// The RGB file of a spectral one, for Mitsuba 3's RGB variants: its `measured` takes a file with
+/// "wavelengths" as spectral and refuses it in an RGB variant, and pbrt-v4 needs "spectra" and
+/// "wavelengths", so no single file serves both (docs/formats.md). The same theta_i, phi_i, ndf,
+/// sigma, vndf, luminance, description and jacobian, and at every sample node
+///     rgb[c] = max(0, sum_l weights[l][c] spectra[l]),
+/// which is exact where the spectral file is: the samples are linear in the BRDF and the factor the
+/// renderer multiplies back (ndf / (4 sigma)) is the same for every channel. The luminance grid
+/// (sampling only) stays the CIE luminance of the spectral samples. Throws InputError when `spectral`
+/// is not spectral or the weights are not one per wavelength, finite.
+RglBsdf rgl_rgb_from_spectral(const RglBsdf& spectral, const std::vector<std::array<double, 3>>& weights);
 
 } // namespace brdf::formats

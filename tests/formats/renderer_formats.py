@@ -8,10 +8,14 @@ NAME.rgl.bsdf against `brdftool eval` on the spec (the exact model), and a Mitsu
       angles, uniform in azimuth (seeded: the same every run), as "theta_i theta_o phi r g b"
       (radians, 1/sr) for tests/formats/fourier_reader.py --model; DIR/rgl_case.json: the same
       directions as unit vectors with the model's albedo at 0, 30, 60 degrees, for
-      tests/reference/formats/mitsuba_measured_check.py (accuracy and Mitsuba's sampling).
+      tests/reference/formats/mitsuba_measured_check.py (accuracy and Mitsuba's sampling) on the
+      RGB companion NAME.rgb.rgl.bsdf in scalar_rgb; DIR/rgl_spectral_case.json: the first
+      --spectral-directions (300) of them with `brdftool eval --spectral` at every solved wavelength,
+      for the same check on the spectral NAME.rgl.bsdf in scalar_spectral, after checking that
+      `brdftool info --json` lists the wavelengths eval solves.
   renderer_formats.py render --brdftool BIN --spec SPEC --work-dir DIR [--gallery DIR]
       a sphere under a directional light: Mitsuba 3 (scalar_rgb, `measured` with DIR/out's
-      .rgl.bsdf, the `direct` integrator) and `brdftool render SPEC` (light size 0, so the smooth
+      .rgb.rgl.bsdf, the `direct` integrator) and `brdftool render SPEC` (light size 0, so the smooth
       interface's mirror image of the light, which no table holds, is not in the picture either).
       Metric: per pixel the relative difference |M - B| / B of the luminance over the pixels whose
       whole footprint lies on the sphere and whose reference radiance is >= 2 % of the brightest
@@ -80,12 +84,41 @@ def setup(args):
             continue
         albedo.append([float(v) for v in line.split()[-3:]])
     name = spec_name(args.spec)
-    case = {"name": name, "bsdf": f"out/{name}.rgl.bsdf", "variant": "scalar_rgb", "enforce": True,
+    # The seed material is solved per wavelength: NAME.rgl.bsdf is spectral (pbrt-v4, Mitsuba's
+    # spectral variants), NAME.rgb.rgl.bsdf its RGB companion (Mitsuba's RGB variants).
+    case = {"name": name, "bsdf": f"out/{name}.rgb.rgl.bsdf", "variant": "scalar_rgb", "enforce": True,
             "pairs": pairs, "reference_brdf": values,
             "albedo": [{"theta_i_deg": t, "albedo": a} for t, a in zip([0, 30, 60], albedo)]}
     with open(os.path.join(args.work_dir, "rgl_case.json"), "w") as f:
         json.dump(case, f)
-    print(f"wrote {out}, model.csv and rgl_case.json ({len(angles)} directions)")
+
+    # The spectral file: `brdftool info` must list the wavelengths `brdftool eval --spectral` solves,
+    # and the model's BRDF at every one of them at the first --spectral-directions directions.
+    spectral_angles = angles[:args.spectral_directions]
+    lines = run([args.brdftool, "eval", args.spec, "--spectral"],
+                input="".join(f"{ti:.9f} {to:.9f} {phi:.9f}\n" for ti, to, phi in spectral_angles)).splitlines()
+    header = lines[0].split()
+    if header[:2] != ["#", "wavelength_nm"]:
+        sys.exit(f"FAIL: brdftool eval --spectral: first line {lines[0]!r}, '# wavelength_nm ...' expected")
+    eval_nm = [float(v) for v in header[2:]]
+    spectral_values = [[float(v) for v in line.split()] for line in lines[1:] if line.strip()]
+    if len(spectral_values) != len(spectral_angles) or any(len(v) != len(eval_nm) for v in spectral_values):
+        sys.exit(f"FAIL: brdftool eval --spectral gave {len(spectral_values)} lines for {len(spectral_angles)} "
+                 f"directions of {len(eval_nm)} wavelengths")
+    rgl = os.path.join(out, f"{name}.rgl.bsdf")
+    info = json.loads(run([args.brdftool, "info", rgl, "--json"]))
+    file_nm = info.get("wavelengths_nm")
+    if not file_nm:
+        sys.exit(f"FAIL: brdftool info {rgl}: no wavelengths_nm (the file should be spectral)")
+    if len(file_nm) != len(eval_nm) or any(abs(a - b) > 1e-3 for a, b in zip(file_nm, eval_nm)):
+        sys.exit(f"FAIL: {rgl} holds the wavelengths {file_nm}, brdftool eval --spectral solves {eval_nm}")
+    spectral_case = {"name": f"{name}-spectral", "bsdf": f"out/{name}.rgl.bsdf", "variant": "scalar_spectral",
+                     "enforce": True, "pairs": pairs[:len(spectral_angles)], "reference_brdf": spectral_values,
+                     "wavelengths_nm": file_nm}
+    with open(os.path.join(args.work_dir, "rgl_spectral_case.json"), "w") as f:
+        json.dump(spectral_case, f)
+    print(f"wrote {out}, model.csv, rgl_case.json ({len(angles)} directions) and rgl_spectral_case.json "
+          f"({len(spectral_angles)} directions x {len(file_nm)} wavelengths, {file_nm[0]:g} to {file_nm[-1]:g} nm)")
     return 0
 
 
@@ -103,7 +136,7 @@ def render(args):
     import numpy as np
 
     name = spec_name(args.spec)
-    rgl = os.path.join(args.work_dir, "out", f"{name}.rgl.bsdf")
+    rgl = os.path.join(args.work_dir, "out", f"{name}.rgb.rgl.bsdf")  # the RGB companion (scalar_rgb)
     size, margin = args.size, 0.06
     light_theta, light_phi = 45.0, 135.0  # brdftool render's defaults
     ours = os.path.join(args.work_dir, "brdftool_sphere.exr")
@@ -172,6 +205,7 @@ def main():
     parser.add_argument("--spec", required=True)
     parser.add_argument("--work-dir", required=True)
     parser.add_argument("--directions", type=int, default=600)
+    parser.add_argument("--spectral-directions", type=int, default=300)
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--median", type=float, default=0.01)
     parser.add_argument("--p95", type=float, default=0.03)

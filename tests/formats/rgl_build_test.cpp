@@ -21,6 +21,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <numbers>
@@ -323,6 +324,42 @@ TEST(RglMitsubaReference, EvaluatorMatchesMitsubasMeasuredEval) {
         }
         EXPECT_LT(worst, 1e-4) << c.at("name");
     }
+}
+
+// The RGB companion of a spectral file: the renderer's value at any direction is the colour-weighted
+// sum of the spectral file's values (same warp, same factor), clamped at 0.
+TEST(RglBuild, RgbFromSpectralIsTheWeightedSumEverywhere) {
+    const RglOptions options = test::rgl_case_options(test::rgl_resolutions[0], true);
+    const auto brdf = test::rgl_test_brdf(RglTestModel::Glossy, options.wavelengths_nm);
+    const RglBsdf spectral = make_rgl_bsdf(brdf, options);
+    std::vector<std::array<double, 3>> weights(spectral.channels());
+    for (std::size_t l = 0; l < weights.size(); ++l) // red fades out, blue in, green a negative lobe
+        weights[l] = {1.0 - 0.05 * l, 0.3 - 0.04 * l, 0.05 * l};
+    const RglBsdf rgb = rgl_rgb_from_spectral(spectral, weights);
+    ASSERT_FALSE(rgb.spectral());
+    EXPECT_EQ(rgb.values.shape, (std::vector<std::size_t>{1, spectral.theta_i.size(), 3,
+                                                          spectral.sample_resolution(), spectral.sample_resolution()}));
+    EXPECT_EQ(rgl_bsdf_fault(rgb), "");
+    const RglEvaluator es(spectral), ec(rgb);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int k = 0; k < 200; ++k) {
+        const double ti = std::acos(u(rng)), to = std::acos(u(rng)), phi = 2 * pi * u(rng);
+        const Vec3 wi{std::sin(ti), 0.0, std::cos(ti)};
+        const Vec3 wo{std::sin(to) * std::cos(phi), std::sin(to) * std::sin(phi), std::cos(to)};
+        const std::vector<double> s = es.eval_cosine(wi, wo), c = ec.eval_cosine(wi, wo);
+        for (int ch = 0; ch < 3; ++ch) {
+            double sum = 0.0, scale = 0.0;
+            for (std::size_t l = 0; l < s.size(); ++l) {
+                sum += weights[l][ch] * s[l];
+                scale += std::abs(weights[l][ch] * s[l]);
+            }
+            EXPECT_NEAR(c[ch], std::max(sum, 0.0), 1e-5 * scale + 1e-12) << "pair " << k << " channel " << ch;
+        }
+    }
+    EXPECT_THROW(rgl_rgb_from_spectral(rgb, {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}), InputError);
+    weights.pop_back();
+    EXPECT_THROW(rgl_rgb_from_spectral(spectral, weights), InputError);
 }
 
 } // namespace

@@ -242,6 +242,7 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
             else formats::write_exr(path, table);
         }));
         outcome.outputs.push_back(path);
+        if (f == "rgl" && rgl_output_spectral(solved)) outcome.outputs.push_back(rgl_rgb_companion_path(path));
     }
     for (auto& w : writes) w.get(); // rethrows a writer's error
     solved.seconds.write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();

@@ -8,6 +8,8 @@
 #include <formats/rgl/rgl_build.h>
 
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 #include <numbers>
 
@@ -144,22 +146,91 @@ void write_fourier_output(const std::filesystem::path& path, const model::Solved
     formats::write_fourier_bsdf(path, bsdf);
 }
 
+bool rgl_output_spectral(const model::SolvedMaterial& solved) {
+    return !solved.samples.empty() &&
+           std::all_of(solved.samples.begin(), solved.samples.end(),
+                       [](const model::WavelengthSolution& s) { return s.wavelength_nm > 0.0; });
+}
+
+std::filesystem::path rgl_rgb_companion_path(const std::filesystem::path& rgl_path) {
+    const std::string name = rgl_path.filename().string();
+    const std::string suffix = ".rgl.bsdf";
+    const std::string stem = name.size() > suffix.size() && name.ends_with(suffix)
+                                 ? name.substr(0, name.size() - suffix.size())
+                                 : rgl_path.stem().string();
+    return rgl_path.parent_path() / (stem + ".rgb.rgl.bsdf");
+}
+
 void write_rgl_output(const std::filesystem::path& path, const model::SolvedMaterial& solved,
                       const model::FillInputs& fill, const RendererResolution& resolution) {
     formats::RglOptions options;
     options.theta_i_count = resolution.rgl_theta_i;
     options.sample_resolution = resolution.rgl_samples;
     options.description = formats::rgl_description(std::string(generator_string), solved.spec.resolved.dump());
-    // The table fill's interpolant (Catmull-Rom in the zenith angles of the order grid, exact
-    // Fourier sum in phi, the single scattering per direction): microseconds per direction, where
-    // SolvedMaterial::brdf would solve a Nystrom system per direction and wavelength.
+    const std::filesystem::path companion = rgl_rgb_companion_path(path);
+    if (!rgl_output_spectral(solved)) {
+        // An analytic medium is given per RGB channel: an RGB file only. The table fill's interpolant
+        // (Catmull-Rom in the zenith angles of the order grid, exact Fourier sum in phi, the single
+        // scattering per direction): microseconds per direction, where SolvedMaterial::brdf would
+        // solve a Nystrom system per direction and wavelength.
+        const formats::RglBrdfCallback brdf = [&](const formats::Vec3& wi, const formats::Vec3& wo,
+                                                   std::vector<double>& values) {
+            const double phi = std::atan2(wo.y, wo.x) - std::atan2(wi.y, wi.x);
+            const model::Rgb v = model::fill_value(fill, zenith(wi.z), zenith(wo.z), phi);
+            values.assign(v.begin(), v.end());
+        };
+        formats::write_rgl_bsdf(path, formats::make_rgl_bsdf(brdf, options));
+        std::error_code ec; // a companion left by an earlier, spectral version of the material
+        std::filesystem::remove(companion, ec);
+        return;
+    }
+
+    // Solved per wavelength: "spectra" at the solved wavelengths (those of NAME.spectral.exr), each
+    // the fill with a one-hot colour weight, three wavelengths per fill_value
+    // (model::for_each_spectral_fill), so a direction costs ceil(L / 3) RGB evaluations.
+    const std::size_t count = solved.samples.size();
+    std::vector<std::size_t> order(count); // channel -> sample, by increasing wavelength
+    for (std::size_t k = 0; k < count; ++k) order[k] = k;
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return solved.samples[a].wavelength_nm < solved.samples[b].wavelength_nm;
+    });
+    std::vector<std::size_t> channel_of(count);
+    for (std::size_t c = 0; c < count; ++c) {
+        channel_of[order[c]] = c;
+        options.wavelengths_nm.push_back(solved.samples[order[c]].wavelength_nm);
+        if (c > 0 && !(options.wavelengths_nm[c] > options.wavelengths_nm[c - 1]))
+            throw InternalError(cat("write_rgl_output: wavelength ", options.wavelengths_nm[c],
+                                    " nm is solved twice"));
+    }
+    std::vector<model::SpectralFill> groups;
+    model::for_each_spectral_fill(solved, [&](const model::SpectralFill& g) { groups.push_back(g); });
     const formats::RglBrdfCallback brdf = [&](const formats::Vec3& wi, const formats::Vec3& wo,
                                                std::vector<double>& values) {
         const double phi = std::atan2(wo.y, wo.x) - std::atan2(wi.y, wi.x);
-        const model::Rgb v = model::fill_value(fill, zenith(wi.z), zenith(wo.z), phi);
-        values.assign(v.begin(), v.end());
+        const double theta_i = zenith(wi.z), theta_o = zenith(wo.z);
+        values.assign(count, 0.0);
+        for (const model::SpectralFill& g : groups) {
+            const model::Rgb v = model::fill_value(g.inputs, theta_i, theta_o, phi);
+            for (int c = 0; c < 3; ++c)
+                if (g.sample[c] >= 0) values[channel_of[static_cast<std::size_t>(g.sample[c])]] = v[c];
+        }
     };
-    formats::write_rgl_bsdf(path, formats::make_rgl_bsdf(brdf, options));
+    const auto t0 = std::chrono::steady_clock::now();
+    const formats::RglBsdf spectral = formats::make_rgl_bsdf(brdf, options);
+    const auto t1 = std::chrono::steady_clock::now();
+    // The RGB file for Mitsuba's RGB variants from the same samples and the samples' colour weights
+    // (the RGB fill is sum_k weight_k f_k, clamped at 0, as the companion is).
+    std::vector<std::array<double, 3>> weights(count);
+    for (std::size_t c = 0; c < count; ++c) {
+        const model::Rgb& w = solved.samples[order[c]].weight;
+        weights[c] = {w[0], w[1], w[2]};
+    }
+    formats::write_rgl_bsdf(path, spectral);
+    formats::write_rgl_bsdf(companion, formats::rgl_rgb_from_spectral(spectral, weights));
+    log::info(solved.spec.name, ": RGL file of ", count, " wavelengths built in ",
+              std::chrono::duration<double>(t1 - t0).count(), " s (", groups.size(),
+              " evaluations per direction), written with its RGB companion in ",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count(), " s");
 }
 
 } // namespace brdf::service

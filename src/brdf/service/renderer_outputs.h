@@ -32,8 +32,19 @@ std::vector<double> fourier_nodes(int n);
 void write_fourier_output(const std::filesystem::path& path, const model::SolvedMaterial& solved,
                           const model::FillInputs& fill, const RendererResolution& resolution);
 
-/// Writes NAME.rgl.bsdf atomically (an RGB file: field "rgb"): formats::make_rgl_bsdf of the
-/// table fill's interpolant model::fill_value, with rgl_description provenance.
+/// Whether NAME.rgl.bsdf is spectral: every sample of `solved` is a wavelength (an analytic medium,
+/// given per RGB channel, has none).
+bool rgl_output_spectral(const model::SolvedMaterial& solved);
+
+/// NAME.rgb.rgl.bsdf beside NAME.rgl.bsdf: the RGB file written with a spectral one.
+std::filesystem::path rgl_rgb_companion_path(const std::filesystem::path& rgl_path);
+
+/// Writes NAME.rgl.bsdf atomically: formats::make_rgl_bsdf of the table fill's interpolant
+/// model::fill_value, with rgl_description provenance. For a material solved per wavelength a
+/// spectral file ("spectra" + "wavelengths" at the solved wavelengths, read by pbrt-v4 and Mitsuba's
+/// spectral variants) and beside it rgl_rgb_companion_path(path), its RGB file
+/// (formats::rgl_rgb_from_spectral, read by Mitsuba's RGB variants); otherwise an RGB file ("rgb")
+/// only, and a stale companion is removed.
 void write_rgl_output(const std::filesystem::path& path, const model::SolvedMaterial& solved,
                       const model::FillInputs& fill, const RendererResolution& resolution);
 
