@@ -8,6 +8,7 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/preview/image.h>
+#include <brdf/preview/preview.h>
 #include <brdf/preview/render.h>
 
 #include <memory>
@@ -31,14 +32,19 @@ int run_render(RenderFlags& f) {
     preview::check_options(f.options);
 
     const Source source = load_source(f.input, f.material, f.device.device());
-    if (source.model && source.model->spec.surface.kind == material::Surface::Smooth) {
-        const model::SolvedMaterial& m = *source.model;
-        f.options.mirror = [&m](double theta) { return m.mirror(theta); };
-    } else if (source.table) {
-        log::info(f.input, ": a table holds no mirror reflection; rendering the diffuse part only");
+    preview::Image image;
+    if (source.model) {
+        image = preview::render_material(*source.model, f.options); // mirror or rough lobe as the surface has
+    } else {
+        if (source.table) {
+            log::info(f.input, ": a table holds no mirror reflection (a rough surface's lobe is in it)");
+            // A nearest-bin lookup is cheap: look the table up at every shading point, so that a rough
+            // surface's narrow lobe (fine in theta_h) is not smoothed away by the BRDF grid.
+            f.options.theta_nodes = f.options.phi_nodes = 0;
+        }
+        image = preview::render_sphere([&source](double ti, double to, double phi) { return source.brdf(ti, to, phi); },
+                                       f.options);
     }
-    const preview::Image image = preview::render_sphere(
-        [&source](double ti, double to, double phi) { return source.brdf(ti, to, phi); }, f.options);
     preview::write_image(image, f.output, tone);
     log::info("wrote ", f.output);
     return 0;
@@ -78,7 +84,8 @@ Subcommand add_render_command(CLI::App& root) {
     app->add_option("--material", flags->material, "material name in a catalogue");
     flags->device.add_to(*app);
     app->footer("View space: x right, y up, the camera looks along -z (orthographic). A smooth interface's mirror\n"
-                "reflection of the light and environment is added for a spec; a table holds only the diffuse part.");
+                "reflection of the light and environment is added for a spec; a table holds only the diffuse part.\n"
+                "A rough surface's lobe is drawn exactly for a spec and from its table bins for a table.");
     return {app, [flags] { return run_render(*flags); }};
 }
 
