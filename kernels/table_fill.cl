@@ -1,5 +1,5 @@
 // The MERL table fill: one work-item per cell of the 90 x 90 x 180 half/difference table. The C++
-// reference is brdf::service::fill_table_cpu and fill_value (src/brdf/service/table_fill.cpp) with
+// reference is brdf::model::fill_table_cpu and fill_value (src/brdf/model/table_fill.cpp) with
 // the bin-centre geometry of formats/halfdiff.cpp (cell_indices, theta_h/theta_d/phi_d_centre,
 // to_directions) and the below-horizon test of formats::cell_below_horizon; this is the same
 // computation, formula for formula and in the same order of summation, in double precision without
@@ -36,6 +36,33 @@ static double lerp_table(__global const double* table, int points, double x) { /
     const int k = min((int)t, points - 2);
     const double f = t - k;
     return (1.0 - f) * table[k] + f * table[k + 1];
+}
+
+// table_fill.cpp: cubic_table (one ghost point beyond each end: x_k = (k - 1) / (points - 3)).
+static double cubic_table(__global const double* table, int points, double x) {
+    const int intervals = points - 3;
+    const double t = clamp_ref(x, 0.0, 1.0) * intervals;
+    const int k = min((int)t, intervals - 1);
+    const double f = t - k;
+    const double f2 = f * f, f3 = f2 * f;
+    const double w0 = 0.5 * (-f3 + 2.0 * f2 - f);
+    const double w1 = 0.5 * (3.0 * f3 - 5.0 * f2 + 2.0);
+    const double w2 = 0.5 * (-3.0 * f3 + 4.0 * f2 + f);
+    const double w3 = 0.5 * (f3 - f2);
+    __global const double* v = table + k;
+    return w0 * v[0] + w1 * v[1] + w2 * v[2] + w3 * v[3];
+}
+
+// table_fill.cpp: smith_lambda (Walter et al. 2007, G1 of eqs. 34 and 27).
+static double smith_lambda(int lobe, double alpha, double mu, double s) {
+    if (!(s > 0.0)) return 0.0;
+    if (!(mu > 0.0)) return INFINITY;
+    if (lobe == 1) {
+        const double x = alpha * alpha * s * s / (mu * mu);
+        return x / (2.0 * (1.0 + sqrt(1.0 + x)));
+    }
+    const double a = mu / (alpha * s);
+    return 0.5 * (exp(-a * a) / (a * sqrt(TF_PI)) - erfc(a));
 }
 
 __kernel void table_fill(__global const FillParams* params_in, __global const double* data,
@@ -125,6 +152,34 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         out0 = max0_ref(out0);
         out1 = max0_ref(out1);
         out2 = max0_ref(out2);
+        // The rough top's first-surface lobe (table_fill.cpp: lobe_geometry), D G / (4 mu_i mu_o)
+        // times the channel's facet Fresnel factor at wi.h.
+        if (p.lobe != 0) {
+            const double s_i = sqrt(max0_ref((1.0 - mu_i) * (1.0 + mu_i)));
+            const double s_o = sqrt(max0_ref((1.0 - mu_o) * (1.0 + mu_o)));
+            const double cos_half = cos(0.5 * phi), omc = 2.0 * cos_half * cos_half;
+            const double sum = mu_i + mu_o;
+            const double t2 = ((s_i - s_o) * (s_i - s_o) + 2.0 * s_i * s_o * omc) / (sum * sum);
+            const double alpha = p.lobe_alpha;
+            const double a2 = alpha * alpha, sec2 = 1.0 + t2;
+            double d = 0.0;
+            if (p.lobe == 1) {
+                const double q = a2 + t2;
+                d = a2 * sec2 * sec2 / (TF_PI * q * q);
+            } else {
+                d = exp(-t2 / a2) * sec2 * sec2 / (TF_PI * a2);
+            }
+            const double li = smith_lambda(p.lobe, alpha, mu_i, s_i);
+            const double lo = smith_lambda(p.lobe, alpha, mu_o, s_o);
+            const double g = p.lobe_separable ? 1.0 / ((1.0 + li) * (1.0 + lo)) : 1.0 / (1.0 + li + lo);
+            const double cos_d = sqrt(max0_ref(0.5 * (1.0 + mu_i * mu_o - s_i * s_o + s_i * s_o * omc)));
+            const double value = d * g / (4.0 * mu_i * mu_o);
+            __global const double* fresnel = data + p.lobe_fresnel_offset;
+            const int lp = p.lobe_points;
+            out0 = max0_ref(out0 + value * cubic_table(fresnel, lp, cos_d));
+            out1 = max0_ref(out1 + value * cubic_table(fresnel + lp, lp, cos_d));
+            out2 = max0_ref(out2 + value * cubic_table(fresnel + 2 * (long)lp, lp, cos_d));
+        }
     }
     output[cell] = out0;
     output[TF_CELLS + cell] = out1;

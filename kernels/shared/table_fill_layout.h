@@ -1,7 +1,7 @@
 #pragma once
 // Parameters of the table-fill kernel (kernels/table_fill.cl), shared with the host
-// (src/brdf/service/cl_table_fill.cpp static_asserts every size and offset). The arrays of
-// brdf::service::FillInputs travel in one buffer of doubles; the offsets below count doubles from its
+// (src/brdf/model/cl_table_fill.cpp static_asserts every size and offset). The arrays of
+// brdf::model::FillInputs travel in one buffer of doubles; the offsets below count doubles from its
 // start. The output holds the three channel planes of formats::BrdfTable one after another:
 // output[c * TF_CELLS + cell].
 
@@ -29,4 +29,10 @@ typedef struct FillParams {
     brdf_i32 phase_points;        ///< K
     brdf_i32 fresnel_points;      ///< F
     brdf_i32 pad;
+    brdf_i64 lobe_fresnel_offset; ///< FillInputs::lobe_fresnel, 3 * lobe_points
+    brdf_f64 lobe_alpha;          ///< FillInputs::lobe_alpha
+    brdf_i32 lobe;                ///< FillInputs::Lobe: 0 none, 1 GGX, 2 Beckmann
+    brdf_i32 lobe_separable;      ///< 1: separable masking, 0: height-correlated
+    brdf_i32 lobe_points;         ///< P
+    brdf_i32 pad2;
 } FillParams;

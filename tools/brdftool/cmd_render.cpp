@@ -10,6 +10,7 @@
 #include <brdf/core/threads.h>
 #include <brdf/model/table_fill.h>
 #include <brdf/preview/image.h>
+#include <brdf/preview/preview.h>
 #include <brdf/preview/render.h>
 
 #include <algorithm>
@@ -35,38 +36,22 @@ int run_render(RenderFlags& f) {
     preview::check_options(f.options);
 
     const Source source = load_source(f.input, f.material, f.device.device());
-    if (source.model && source.model->spec.surface.kind == material::Surface::Smooth) {
-        // The mirror reflectance (an adding solve per call) is smooth in theta: tabulated once and
-        // interpolated linearly, instead of solved at every sub-pixel sample.
-        constexpr int nodes = 1025;
-        auto table = std::make_shared<std::vector<model::Rgb>>(nodes);
-        parallel_for(nodes, 0, [&](int k) { (*table)[k] = source.model->mirror(0.5 * formats::pi * k / (nodes - 1)); });
-        const auto tabulated = [table](double theta) {
-            const double t = std::clamp(theta / (0.5 * formats::pi), 0.0, 1.0) * (nodes - 1);
-            const int k = std::min(static_cast<int>(t), nodes - 2);
-            const double w = t - k;
-            model::Rgb out;
-            for (int c = 0; c < 3; ++c) out[c] = (1.0 - w) * (*table)[k][c] + w * (*table)[k + 1][c];
-            return out;
-        };
-        f.options.mirror = preview::in_rec709(tabulated, source.model->spec.colorspace);
-    } else if (!source.model) {
-        log::info(f.input, ": a table holds no mirror reflection; rendering the diffuse part only");
+    preview::Image image;
+    if (source.model) {
+        image = preview::render_material(*source.model, f.options); // mirror or rough lobe as the surface has
+    } else {
+        if (source.table) {
+            log::info(f.input, ": a table holds no mirror reflection (a rough surface's lobe is in it)");
+            // A nearest-bin lookup is cheap: look the table up at every shading point, so that a rough
+            // surface's narrow lobe (fine in theta_h) is not smoothed away by the BRDF grid.
+            f.options.theta_nodes = f.options.phi_nodes = 0;
+        }
+        // Shaded and displayed in Rec.709: the table's colour space converted (preview::in_rec709).
+        image = preview::render_sphere(
+            preview::in_rec709([&source](double ti, double to, double phi) { return source.brdf(ti, to, phi); },
+                               source.colorspace()),
+            f.options);
     }
-    // A solved spec is shaded through the table fill's batched data (the order grids at the table's
-    // zenith angles, interpolated, plus the exact single scattering): microseconds per direction,
-    // where SolvedMaterial::brdf solves a Nystrom system per direction and wavelength. The dipole
-    // comparison model is not in the fill and keeps the per-direction path.
-    std::optional<model::FillInputs> fill;
-    if (source.model && source.model->spec.model != material::Model::Dipole) fill = model::prepare_fill(*source.model);
-    // Shaded and displayed in Rec.709: the source's colour space converted (preview::in_rec709).
-    const preview::Image image = preview::render_sphere(
-        preview::in_rec709(
-            [&source, &fill](double ti, double to, double phi) {
-                return fill ? model::fill_value(*fill, ti, to, phi) : source.brdf(ti, to, phi);
-            },
-            source.colorspace()),
-        f.options);
     preview::write_image(image, f.output, tone);
     log::info("wrote ", f.output);
     return 0;
@@ -106,7 +91,8 @@ Subcommand add_render_command(CLI::App& root) {
     app->add_option("--material", flags->material, "material name in a catalogue");
     flags->device.add_to(*app);
     app->footer("View space: x right, y up, the camera looks along -z (orthographic). A smooth interface's mirror\n"
-                "reflection of the light and environment is added for a spec; a table holds only the diffuse part.");
+                "reflection of the light and environment is added for a spec; a table holds only the diffuse part.\n"
+                "A rough surface's lobe is drawn exactly for a spec and from its table bins for a table.");
     return {app, [flags] { return run_render(*flags); }};
 }
 

@@ -20,7 +20,7 @@
 
 namespace brdf::model {
 
-static_assert(sizeof(FillParams) == 80);
+static_assert(sizeof(FillParams) == 112);
 static_assert(offsetof(FillParams, fourier_offset) == 0);
 static_assert(offsetof(FillParams, phase_offset) == 8);
 static_assert(offsetof(FillParams, index_offset) == 16);
@@ -34,6 +34,13 @@ static_assert(offsetof(FillParams, samples) == 64);
 static_assert(offsetof(FillParams, phase_points) == 68);
 static_assert(offsetof(FillParams, fresnel_points) == 72);
 static_assert(offsetof(FillParams, pad) == 76);
+static_assert(offsetof(FillParams, lobe_fresnel_offset) == 80);
+static_assert(offsetof(FillParams, lobe_alpha) == 88);
+static_assert(offsetof(FillParams, lobe) == 96);
+static_assert(offsetof(FillParams, lobe_separable) == 100);
+static_assert(offsetof(FillParams, lobe_points) == 104);
+static_assert(offsetof(FillParams, pad2) == 108);
+static_assert(static_cast<int>(FillInputs::Lobe::Ggx) == 1 && static_cast<int>(FillInputs::Lobe::Beckmann) == 2);
 static_assert(TF_CELLS == formats::cells);
 static_assert(TF_THETA_H_BINS == formats::theta_h_bins);
 static_assert(TF_THETA_D_BINS == formats::theta_d_bins);
@@ -62,6 +69,15 @@ void validate(const FillInputs& in) {
     require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");
     require_size(in.weight.size(), s * 3, "weight");
     require_size(in.tau.size(), s, "tau");
+    if (in.lobe != FillInputs::Lobe::None) {
+        if (in.lobe != FillInputs::Lobe::Ggx && in.lobe != FillInputs::Lobe::Beckmann)
+            throw InputError("OpenCL table fill: unknown lobe distribution");
+        if (!(in.lobe_alpha >= 1e-3 && in.lobe_alpha <= 1.0))
+            throw InputError(cat("OpenCL table fill: lobe roughness ", in.lobe_alpha, " (0.001 to 1)"));
+        if (in.lobe_points < 5)
+            throw InputError(cat("OpenCL table fill: lobe Fresnel table of ", in.lobe_points, " points (at least 5)"));
+        require_size(in.lobe_fresnel.size(), 3 * static_cast<std::size_t>(in.lobe_points), "lobe_fresnel");
+    }
 }
 
 } // namespace
@@ -70,7 +86,8 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     validate(in);
     FillParams params{};
     std::vector<double> data;
-    data.reserve(in.fourier.size() + in.phase.size() + in.index.size() + in.transmission.size() + in.weight.size() + 1);
+    data.reserve(in.fourier.size() + in.phase.size() + in.index.size() + in.transmission.size() + in.weight.size() +
+                 in.tau.size() + in.lobe_fresnel.size() + 1);
     auto append = [&data](const std::vector<double>& v) {
         const auto offset = static_cast<brdf_i64>(data.size());
         data.insert(data.end(), v.begin(), v.end());
@@ -82,6 +99,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     params.transmission_offset = append(in.transmission);
     params.weight_offset = append(in.weight);
     params.tau_offset = append(in.tau);
+    params.lobe_fresnel_offset = append(in.lobe_fresnel);
     if (data.empty()) data.push_back(0.0);
     params.cell_count = static_cast<brdf_i64>(formats::cells);
     params.grid = in.grid;
@@ -90,6 +108,11 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     params.phase_points = in.phase_points;
     params.fresnel_points = in.fresnel_points;
     params.pad = 0;
+    params.lobe_alpha = in.lobe_alpha;
+    params.lobe = static_cast<brdf_i32>(in.lobe);
+    params.lobe_separable = in.lobe_separable ? 1 : 0;
+    params.lobe_points = in.lobe_points;
+    params.pad2 = 0;
 
     auto ctx = brdf::cl::Context::shared();
     const ::cl::Program program = ctx->program("table_fill");

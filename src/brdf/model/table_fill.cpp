@@ -3,10 +3,12 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/threads.h>
+#include <brdf/rte/interface.h>
 #include <brdf/rte/phase.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace brdf::model {
@@ -16,6 +18,10 @@ constexpr int phase_table_points = 8192;
 // A(mu) / (n sqrt(pi)) is smooth (linear near grazing for a half-space): 2049 points interpolate it to
 // ~1e-7.
 constexpr int fresnel_table_points = 2049;
+// The facet Fresnel factor F(cos theta_d; n) is analytic on [0, 1] (n > 1): Catmull-Rom on 2048
+// intervals interpolates it to ~1e-10 (O(h^3)), well inside the lobe's 1e-6. One ghost point beyond
+// each end keeps the end intervals cubic too.
+constexpr int lobe_fresnel_intervals = 2048;
 
 // Catmull-Rom weights for fractional position f in [0, 1) between taps 0 and 1 of (-1, 0, 1, 2).
 void catmull_rom(double f, double w[4]) {
@@ -46,6 +52,97 @@ double lerp_table(const double* table, int points, double x) { // x in [0, 1]
     const int k = std::min(static_cast<int>(t), points - 2);
     const double f = t - k;
     return (1.0 - f) * table[k] + f * table[k + 1];
+}
+
+// Catmull-Rom through a table with one ghost point beyond each end: table[k] holds the value at
+// x_k = (k - 1) / (points - 3), k = 0 .. points - 1; x in [0, 1].
+double cubic_table(const double* table, int points, double x) {
+    const int intervals = points - 3;
+    const double t = std::clamp(x, 0.0, 1.0) * intervals;
+    const int k = std::min(static_cast<int>(t), intervals - 1);
+    double w[4];
+    catmull_rom(t - k, w);
+    const double* v = table + k; // taps x_{k-1} .. x_{k+2} are table[k] .. table[k + 3]
+    return w[0] * v[0] + w[1] * v[1] + w[2] * v[2] + w[3] * v[3];
+}
+
+// Smith Lambda from a direction's cosine and sine (rte/rough_interface.cpp, Facets::lambda: Walter
+// et al. 2007, G1 of eqs. 34 (GGX) and 27 (Beckmann, exact)).
+double smith_lambda(FillInputs::Lobe lobe, double alpha, double mu, double s) {
+    if (!(s > 0.0)) return 0.0;
+    if (!(mu > 0.0)) return std::numeric_limits<double>::infinity();
+    if (lobe == FillInputs::Lobe::Ggx) {
+        const double x = alpha * alpha * s * s / (mu * mu); // alpha^2 tan^2
+        return x / (2.0 * (1.0 + std::sqrt(1.0 + x)));
+    }
+    const double a = mu / (alpha * s);
+    return 0.5 * (std::exp(-a * a) / (a * std::sqrt(std::numbers::pi)) - std::erfc(a));
+}
+
+// The first-surface lobe without its Fresnel factor, D(h) G(wi, wo) / (4 mu_i mu_o), and the cosine
+// wi.h it needs, for the graphics azimuth phi (the geometry of rte/rough_interface.cpp: with
+// omc = 1 + cos(phi), tan^2(theta_h) = ((s_i - s_o)^2 + 2 s_i s_o omc) / (mu_i + mu_o)^2 and
+// wi.wo = mu_i mu_o - s_i s_o + s_i s_o omc).
+struct LobeGeometry {
+    double cos_d = 0.0;
+    double value = 0.0;
+};
+
+LobeGeometry lobe_geometry(const FillInputs& in, double mu_i, double mu_o, double phi) {
+    const double s_i = std::sqrt(std::max(0.0, (1.0 - mu_i) * (1.0 + mu_i)));
+    const double s_o = std::sqrt(std::max(0.0, (1.0 - mu_o) * (1.0 + mu_o)));
+    const double cos_half = std::cos(0.5 * phi), omc = 2.0 * cos_half * cos_half;
+    const double sum = mu_i + mu_o;
+    const double t2 = ((s_i - s_o) * (s_i - s_o) + 2.0 * s_i * s_o * omc) / (sum * sum);
+    const double a2 = in.lobe_alpha * in.lobe_alpha, sec2 = 1.0 + t2;
+    double d = 0.0;
+    if (in.lobe == FillInputs::Lobe::Ggx) { // Walter eq. 33
+        const double q = a2 + t2;
+        d = a2 * sec2 * sec2 / (std::numbers::pi * q * q);
+    } else { // Walter eq. 25
+        d = std::exp(-t2 / a2) * sec2 * sec2 / (std::numbers::pi * a2);
+    }
+    const double li = smith_lambda(in.lobe, in.lobe_alpha, mu_i, s_i);
+    const double lo = smith_lambda(in.lobe, in.lobe_alpha, mu_o, s_o);
+    // Heitz 2014 eqs. 99 (height-correlated) and 98 (separable).
+    const double g = in.lobe_separable ? 1.0 / ((1.0 + li) * (1.0 + lo)) : 1.0 / (1.0 + li + lo);
+    LobeGeometry out;
+    out.cos_d = std::sqrt(std::max(0.0, 0.5 * (1.0 + mu_i * mu_o - s_i * s_o + s_i * s_o * omc)));
+    out.value = d * g / (4.0 * mu_i * mu_o);
+    return out;
+}
+
+// The rough top's lobe constants, the same for every sample (the spec's surface), and the facet
+// Fresnel factor per channel.
+void prepare_lobe(const SolvedMaterial& material, FillInputs& in) {
+    const rte::RoughInterface* first = nullptr;
+    for (const WavelengthSolution& s : material.samples) {
+        const rte::RoughInterface* r = s.reflection.rough_interface();
+        if (!r) continue;
+        if (!first) first = r;
+        const rte::RoughSurface& a = first->surface(), &b = r->surface();
+        if (a.alpha != b.alpha || a.distribution != b.distribution || a.masking != b.masking)
+            throw InternalError("table fill: the samples' rough surfaces differ (one lobe per table expected)");
+    }
+    if (!first) return;
+    const rte::RoughSurface& surface = first->surface();
+    in.lobe = surface.distribution == rte::Microfacet::Ggx ? FillInputs::Lobe::Ggx : FillInputs::Lobe::Beckmann;
+    in.lobe_separable = surface.masking == rte::Masking::Separable;
+    in.lobe_alpha = surface.alpha;
+    const int p = lobe_fresnel_intervals + 3;
+    in.lobe_points = p;
+    in.lobe_fresnel.assign(3 * static_cast<std::size_t>(p), 0.0);
+    for (const WavelengthSolution& s : material.samples) {
+        const rte::RoughInterface* r = s.reflection.rough_interface();
+        if (!r) continue;
+        const rte::Interface facet{r->index()};
+        for (int k = 0; k < p; ++k) {
+            // The ghost points lie just outside [0, 1], where the formula continues analytically.
+            const double c = static_cast<double>(k - 1) / lobe_fresnel_intervals;
+            const double f = facet.reflectance_from_air(c);
+            for (int ch = 0; ch < 3; ++ch) in.lobe_fresnel[static_cast<std::size_t>(ch) * p + k] += s.weight[ch] * f;
+        }
+    }
 }
 
 } // namespace
@@ -105,6 +202,7 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<rte::
             ++in.samples;
         }
     }
+    prepare_lobe(material, in);
     return in;
 }
 
@@ -180,6 +278,12 @@ Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi)
         for (int c = 0; c < 3; ++c) out[c] += in.weight[s * 3 + c] * v;
     }
     for (double& v : out) v = std::max(0.0, v);
+    if (in.lobe != FillInputs::Lobe::None) {
+        const LobeGeometry g = lobe_geometry(in, mu_i, mu_o, phi);
+        for (int c = 0; c < 3; ++c)
+            out[c] = std::max(0.0, out[c] + g.value * cubic_table(&in.lobe_fresnel[static_cast<std::size_t>(c) * in.lobe_points],
+                                                                  in.lobe_points, g.cos_d));
+    }
     return out;
 }
 

@@ -7,6 +7,10 @@
 // Fourier order, combined into RGB there, and interpolated per cell (Catmull-Rom in theta_i and
 // theta_o) before the Fourier sum in phi. The single scattering is evaluated per cell and per
 // wavelength from a fine table of the phase function, with each wavelength's own refraction.
+// Under a rough top the first-surface reflection lobe (Reflection::surface_lobe) is added per cell
+// in closed form, never Fourier expanded: in air it is D(h) G(wi, wo) F(wi.h; n) / (4 mu_i mu_o)
+// (Walter et al. 2007, eq. 20), and only the facet Fresnel factor depends on the wavelength, so it
+// is tabulated per colour channel in cos(theta_d) = wi.h while D and G are computed per cell.
 // FillInputs is everything a cell needs; the OpenCL kernel and the C++ reference read the same.
 
 #include <brdf/model/model.h>
@@ -36,6 +40,16 @@ struct FillInputs {
     std::vector<double> transmission;
     std::vector<double> tau;    ///< [s]: the layer's (delta-M scaled) optical thickness, infinite for a half-space
     std::vector<double> weight; ///< [s * 3 + c]
+
+    /// The rough top's first-surface lobe (every sample shares alpha, distribution and masking).
+    enum class Lobe { None = 0, Ggx = 1, Beckmann = 2 };
+    Lobe lobe = Lobe::None;
+    bool lobe_separable = false; ///< masking G1(wi) G1(wo); otherwise height-correlated (Heitz 2014)
+    double lobe_alpha = 0.0;     ///< roughness, in [0.001, 1]
+    /// P: lobe_fresnel[c * P + k] = sum_s w_s,c F(c_k; n_s) at c_k = cos(theta_d) = k / (P - 1): the
+    /// facet Fresnel reflectance from air (rte::Interface::reflectance_from_air) weighted per channel.
+    int lobe_points = 0;
+    std::vector<double> lobe_fresnel;
 };
 
 FillInputs prepare_fill(const SolvedMaterial& material);

@@ -1,7 +1,8 @@
 #pragma once
 // The one-call preview of a solved material, for `brdftool compute --preview` and anything else that
 // has a SolvedMaterial in hand: the default sphere rendering (render.h) with the material's mirror
-// reflection when it has a smooth interface, written as a tone-mapped PNG.
+// reflection when it has a smooth interface (its lobe when it has a rough one), written as a
+// tone-mapped PNG.
 
 #include <brdf/preview/render.h>
 #include <brdf/model/model.h>
@@ -10,7 +11,8 @@
 
 namespace brdf::preview {
 
-/// render_sphere of the material's BRDF (and mirror, with surface "smooth") with `options`.
+/// render_sphere of the material's BRDF with `options`: with surface "smooth" its mirror, with a
+/// rough surface the body on the BRDF grid and the first-surface lobe exactly (RenderOptions::lobe).
 Image render_material(const model::SolvedMaterial& material, RenderOptions options = {});
 
 /// Renders `material` at 256 x 256 pixels (light from the upper left, a dim sky) and writes it to

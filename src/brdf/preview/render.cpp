@@ -247,8 +247,19 @@ Image render_sphere(const BrdfFunction& brdf_in, const RenderOptions& o) {
                     for (const Vec& d : light.directions) {
                         const double mu_i = dot(n, d);
                         if (mu_i <= 0.0) continue;
-                        const Rgb f = brdf(safe_acos(mu_i), theta_o, frame.phi(d));
+                        const double theta_i = safe_acos(mu_i), phi = frame.phi(d);
+                        Rgb f = brdf(theta_i, theta_o, phi);
+                        if (o.lobe) {
+                            const Rgb l = o.lobe(theta_i, theta_o, phi);
+                            for (int c = 0; c < 3; ++c) f[c] += l[c];
+                        }
                         for (int c = 0; c < 3; ++c) sum[c] += sub_weight * f[c] * light.irradiance[c] * mu_i;
+                    }
+                    // The rough lobe sees the environment around the mirror direction.
+                    if (o.lobe_albedo && !mu_nodes.empty()) {
+                        const Rgb a = o.lobe_albedo(theta_o);
+                        const Rgb env = environment(2.0 * mu_o * n - view);
+                        for (int c = 0; c < 3; ++c) sum[c] += sub_weight * a[c] * env[c];
                     }
                     // The interface mirrors the environment and the light's disc.
                     if (o.mirror) {

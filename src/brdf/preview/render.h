@@ -6,10 +6,16 @@
 //   L_o = sum_lights f(theta_i, theta_o, phi) E cos theta_i                      (light)
 //       + sum_j f(theta_j, theta_o, phi_j) L_env(w_j) cos theta_j dw_j           (environment)
 //       + F(theta_o) [L_env(r) + L_light(r)]                                     (smooth interface)
+//       + sum_lights f_lobe(theta_i, theta_o, phi) E cos theta_i + A_lobe(theta_o) L_env(r)
+//                                                                                (rough interface)
 //
 // with theta_i, theta_o from the normal and phi = phi_o - phi_i (docs/design.md: 0 on the light's side,
 // pi on the mirror side), r the mirror direction of the view and F the interface's mirror
-// reflectance. Everything is deterministic: the environment is integrated with a fixed product rule
+// reflectance. A rough interface's first-surface lobe f_lobe is too narrow for the BRDF grid and the
+// environment rule (a gloss lobe is a degree or two wide): it is evaluated exactly at every shading
+// point for the light, and lit by the environment through its directional albedo A_lobe and the
+// environment in the mirror direction (exact for a constant environment, the narrow-lobe limit of a
+// slowly varying one). Everything is deterministic: the environment is integrated with a fixed product rule
 // in each point's local frame (Gauss-Legendre in cos theta times the midpoint rule in azimuth), which
 // integrates a constant environment to the directional albedo without noise.
 //
@@ -58,6 +64,10 @@ struct RenderOptions {
 
     /// The smooth interface's mirror reflectance; empty when the material has none.
     MirrorFunction mirror;
+    /// A rough interface's first-surface lobe (1/sr), never tabulated, and its directional albedo;
+    /// both empty when the material has none. The BRDF passed to render_sphere is then the rest.
+    BrdfFunction lobe;
+    MirrorFunction lobe_albedo;
 
     /// The BRDF is sampled on a grid of theta_nodes x theta_nodes x phi_nodes (cell-centred zenith
     /// angles, phi 0..180 inclusive, reciprocity halves the work) and interpolated trilinearly;

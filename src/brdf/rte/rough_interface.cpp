@@ -438,7 +438,7 @@ void azimuth_orders(const Facets& fc, Kind kind, const Pair& p, const Level& lev
             cluster_map(g.x[k], sg.a, sg.b, sg.cluster_a, None, u, du);
             double omc, dphi;
             if (sg.moebius) {
-                const double t = std::tan(0.5 * u), ch = std::cos(0.5 * u), sh = std::sin(0.5 * u);
+                const double sh = std::sin(0.5 * u), ch = std::cos(0.5 * u), t = sh / ch; // one sincos, no tan
                 const double x = w * t; // tan(phi/2)
                 omc = 2.0 * x * x / (1.0 + x * x);
                 dphi = w / (ch * ch + w * w * sh * sh) * du;
