@@ -205,9 +205,15 @@ const char* cds_six = R"({"name": "cds6", "binder": {"material": "pmma"}, "accur
     "pigments": [{"material": "cds", "volume_fraction": 0.1,
                   "size": {"distribution": "power_law", "r_eff_um": 0.2, "v_eff": 0.2}}]})";
 
-std::unique_ptr<SpectralRun> compute_spectral() {
+// The same CdS under a gloss finish: the first-surface lobe of each channel is its wavelength's own.
+const char* cds_six_gloss = R"({"name": "cds6", "binder": {"material": "pmma"}, "accuracy": "draft", "surface": "gloss",
+    "spectrum": {"wavelengths_nm": [450, 500, 520, 540, 580, 650]}, "outputs": ["exr", "spectral_exr"],
+    "pigments": [{"material": "cds", "volume_fraction": 0.1,
+                  "size": {"distribution": "power_law", "r_eff_um": 0.2, "v_eff": 0.2}}]})";
+
+std::unique_ptr<SpectralRun> compute_spectral(const char* text = cds_six) {
     auto run = std::make_unique<SpectralRun>();
-    write_file(run->dir / "cds6.json", cds_six);
+    write_file(run->dir / "cds6.json", text);
     service::ComputeOptions options;
     options.output_dir = run->dir / "out";
     options.device = model::Device::Cpu;
@@ -219,8 +225,8 @@ std::unique_ptr<SpectralRun> compute_spectral() {
     return run;
 }
 
-TEST(PipelineSpectral, EachChannelIsASingleWavelengthSolve) {
-    const auto run = compute_spectral();
+void expect_channels_are_single_wavelength_solves(const char* text) {
+    const auto run = compute_spectral(text);
     const auto& samples = run->report["wavelengths"];
     ASSERT_EQ(run->spectral.wavelengths_nm.size(), samples.size());
     const int streams = run->report["solver"]["streams"];
@@ -236,7 +242,7 @@ TEST(PipelineSpectral, EachChannelIsASingleWavelengthSolve) {
         EXPECT_EQ(run->spectral.wavelengths_nm[j], lambda);
         // The same spec at this wavelength alone, with the material's stream count (the
         // convergence check would pick its own from other probes).
-        nlohmann::json one = nlohmann::json::parse(cds_six);
+        nlohmann::json one = nlohmann::json::parse(text);
         one["spectrum"] = {{"wavelengths_nm", {lambda}}};
         const auto spec = material::parse_specs_text(one.dump(), "one.json").at(0);
         model::NumericalSettings settings = model::settings_for(spec.accuracy.tolerance);
@@ -259,6 +265,12 @@ TEST(PipelineSpectral, EachChannelIsASingleWavelengthSolve) {
         EXPECT_LE(worst, 1e-6) << lambda << " nm";
         std::printf("%.0f nm: worst relative difference %.2e over %zu cells\n", lambda, worst, cells.size());
     }
+}
+
+TEST(PipelineSpectral, EachChannelIsASingleWavelengthSolve) { expect_channels_are_single_wavelength_solves(cds_six); }
+
+TEST(PipelineSpectral, EachChannelIsASingleWavelengthSolveUnderAGlossFinish) {
+    expect_channels_are_single_wavelength_solves(cds_six_gloss);
 }
 
 TEST(PipelineSpectral, IntegratingTheSpectralTableGivesTheRgbTable) {

@@ -113,8 +113,10 @@ LobeGeometry lobe_geometry(const FillInputs& in, double mu_i, double mu_o, doubl
 }
 
 // The rough top's lobe constants, the same for every sample (the spec's surface), and the facet
-// Fresnel factor per channel.
-void prepare_lobe(const SolvedMaterial& material, FillInputs& in) {
+// Fresnel factor per channel of the samples `which` with colour weights `weights` (the RGB fill:
+// all samples with theirs; a spectral group: its own with one-hot weights).
+void prepare_lobe(const SolvedMaterial& material, const std::vector<std::size_t>& which,
+                  const std::vector<Rgb>& weights, FillInputs& in) {
     const rte::RoughInterface* first = nullptr;
     for (const WavelengthSolution& s : material.samples) {
         const rte::RoughInterface* r = s.reflection.rough_interface();
@@ -132,15 +134,15 @@ void prepare_lobe(const SolvedMaterial& material, FillInputs& in) {
     const int p = lobe_fresnel_intervals + 3;
     in.lobe_points = p;
     in.lobe_fresnel.assign(3 * static_cast<std::size_t>(p), 0.0);
-    for (const WavelengthSolution& s : material.samples) {
-        const rte::RoughInterface* r = s.reflection.rough_interface();
+    for (std::size_t j = 0; j < which.size(); ++j) {
+        const rte::RoughInterface* r = material.samples[which[j]].reflection.rough_interface();
         if (!r) continue;
         const rte::Interface facet{r->index()};
         for (int k = 0; k < p; ++k) {
             // The ghost points lie just outside [0, 1], where the formula continues analytically.
             const double c = static_cast<double>(k - 1) / lobe_fresnel_intervals;
             const double f = facet.reflectance_from_air(c);
-            for (int ch = 0; ch < 3; ++ch) in.lobe_fresnel[static_cast<std::size_t>(ch) * p + k] += s.weight[ch] * f;
+            for (int ch = 0; ch < 3; ++ch) in.lobe_fresnel[static_cast<std::size_t>(ch) * p + k] += weights[j][ch] * f;
         }
     }
 }
@@ -202,7 +204,7 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<rte::
             ++in.samples;
         }
     }
-    prepare_lobe(material, in);
+    prepare_lobe(material, which, weights, in);
     return in;
 }
 

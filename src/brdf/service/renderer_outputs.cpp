@@ -80,6 +80,12 @@ void write_fourier_output(const std::filesystem::path& path, const model::Solved
             for (int layer = 0; layer < static_cast<int>(s.reflection.setup().layers.size()); ++layer)
                 ss_orders = std::max(ss_orders, static_cast<int>(s.reflection.scattering_layer(layer).beta->size()));
     if (fill.samples == 0) ss_orders = 0;
+    // A rough top's first-surface lobe (in `fill`, evaluated exactly per direction) is expanded
+    // the same way. In azimuth it is about alpha wide at grazing and wider towards the normal, so
+    // its coefficients fall like exp(-(m alpha)^2 / 2): 12 / alpha orders keep it to ~1e-8 of its
+    // peak before the file's truncation.
+    if (fill.lobe != model::FillInputs::Lobe::None)
+        ss_orders = std::max(ss_orders, static_cast<int>(std::ceil(12.0 / fill.lobe_alpha)));
     orders = std::min(std::max(orders, ss_orders), max_fourier_orders);
 
     // b[((o * e + i) * 3 + c) * orders + m]: f = sum_m b_m cos(m phi), 1/sr, our conventions.
