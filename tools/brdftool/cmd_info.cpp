@@ -54,6 +54,19 @@ struct AlbedoRow {
     formats::Rgb rho{};
 };
 
+/// The directional albedo rows under their heading ("evaluated as ..."), one line per angle.
+void print_albedo(std::ostream& os, const std::string& how, const std::vector<AlbedoRow>& albedo) {
+    char line[128];
+    os << "  directional albedo (" << how << "):\n";
+    std::snprintf(line, sizeof line, "    %-9s %12s %12s %12s\n", "theta_i", "red", "green", "blue");
+    os << line;
+    for (const AlbedoRow& row : albedo) {
+        std::snprintf(line, sizeof line, "    %5.0f deg %12.6g %12.6g %12.6g\n", row.theta_i_deg, row.rho[0],
+                      row.rho[1], row.rho[2]);
+        os << line;
+    }
+}
+
 /// "%.6g" of a value: enough digits to compare with a reference, short enough to read.
 std::string num(double v) {
     char buf[32];
@@ -129,15 +142,7 @@ int info_fourier(const fs::path& path, std::uintmax_t size, bool json) {
     } else {
         os << "  metadata:    " << (b.metadata.empty() ? "(none)" : spec_summary(b.metadata)) << '\n';
     }
-    char line[128];
-    os << "  directional albedo (the Fourier series evaluated as pbrt-v3 does):\n";
-    std::snprintf(line, sizeof line, "    %-9s %12s %12s %12s\n", "theta_i", "red", "green", "blue");
-    os << line;
-    for (const AlbedoRow& row : albedo) {
-        std::snprintf(line, sizeof line, "    %5.0f deg %12.6g %12.6g %12.6g\n", row.theta_i_deg, row.rho[0],
-                      row.rho[1], row.rho[2]);
-        os << line;
-    }
+    print_albedo(os, "the Fourier series evaluated as pbrt-v3 does", albedo);
     std::cout << os.str();
     return 0;
 }
@@ -207,15 +212,7 @@ int info_rgl(const fs::path& path, std::uintmax_t size, bool json) {
     } else {
         os << "  description: " << (b.description.empty() ? "(none)" : spec_summary(b.description)) << '\n';
     }
-    char line[128];
-    os << "  directional albedo (evaluated as Mitsuba 3's measured does):\n";
-    std::snprintf(line, sizeof line, "    %-9s %12s %12s %12s\n", "theta_i", "red", "green", "blue");
-    os << line;
-    for (const AlbedoRow& row : albedo) {
-        std::snprintf(line, sizeof line, "    %5.0f deg %12.6g %12.6g %12.6g\n", row.theta_i_deg, row.rho[0],
-                      row.rho[1], row.rho[2]);
-        os << line;
-    }
+    print_albedo(os, "evaluated as Mitsuba 3's measured does", albedo);
     std::cout << os.str();
     return 0;
 }
@@ -329,15 +326,7 @@ int run_info(const InfoFlags& f) {
                       stats.channels[c].mean);
         os << line;
     }
-    os << "  directional albedo (table lookup):\n";
-    std::snprintf(line, sizeof line, "    %-9s %12s %12s %12s\n", "theta_i", "red", "green",
-                  "blue");
-    os << line;
-    for (const AlbedoRow& row : albedo) {
-        std::snprintf(line, sizeof line, "    %5.0f deg %12.6g %12.6g %12.6g\n", row.theta_i_deg,
-                      row.rho[0], row.rho[1], row.rho[2]);
-        os << line;
-    }
+    print_albedo(os, "table lookup", albedo);
     std::cout << os.str();
     return 0;
 }

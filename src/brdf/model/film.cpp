@@ -76,18 +76,18 @@ std::optional<double> hiding_thickness_um(const material::MaterialSpec& spec, co
     // The contrast ratio rises monotonically with thickness (each added sublayer only adds
     // reflection over black and hides more of the white): bracket by doubling, then bisect in log t.
     double lo = 1.0, hi = 1.0;
-    if (cr(lo) >= target) {
-        while (cr(lo) >= target) {
+    if (cr(1.0) >= target) {
+        do {
             hi = lo;
             lo *= 0.5;
             if (lo < 1e-6) return lo;
-        }
+        } while (cr(lo) >= target);
     } else {
-        while (cr(hi) < target) {
+        do {
             lo = hi;
             hi *= 2.0;
             if (hi > 1e4) return std::nullopt;
-        }
+        } while (cr(hi) < target);
     }
     while (hi / lo > 1.0 + 1e-4) {
         const double mid = std::sqrt(lo * hi);
