@@ -132,11 +132,11 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         // Single scattering with the full phase function, per sample and layer (its own refraction).
         const double sin_i = sqrt(max0_ref(1.0 - mu_i * mu_i)), sin_o = sqrt(max0_ref(1.0 - mu_o * mu_o));
         const int kp = p.phase_points, kf = p.fresnel_points;
-        __global const double* index = data + p.index_offset;
+        __global const double* refractive_index = data + p.refractive_index_offset;
         __global const double* weight = data + p.weight_offset;
         __global const double* tau = data + p.tau_offset;
         for (int s = 0; s < p.samples; ++s) {
-            const double n = index[s], inv_n2 = 1.0 / (n * n);
+            const double n = refractive_index[s], inv_n2 = 1.0 / (n * n);
             const double ui = sqrt(1.0 - sin_i * sin_i * inv_n2), uo = sqrt(1.0 - sin_o * sin_o * inv_n2);
             const double cos_scatter = clamp_ref(-uo * ui - sin_o * sin_i * inv_n2 * c1, -1.0, 1.0);
             const double phase =

@@ -18,7 +18,7 @@
 typedef struct FillParams {
     brdf_i64 fourier_offset;      ///< FillInputs::fourier, orders * 3 * grid * grid
     brdf_i64 phase_offset;        ///< FillInputs::phase, samples * phase_points
-    brdf_i64 index_offset;        ///< FillInputs::index, samples
+    brdf_i64 refractive_index_offset; ///< FillInputs::refractive_index, samples
     brdf_i64 transmission_offset; ///< FillInputs::transmission, samples * fresnel_points
     brdf_i64 weight_offset;       ///< FillInputs::weight, samples * 3
     brdf_i64 tau_offset;          ///< FillInputs::tau, samples

@@ -159,7 +159,7 @@ TEST(ClTableFillInputs, InconsistentInputsAreRefused) {
     in.phase.assign(4, 0.0);
     in.fresnel_points = 2;
     in.transmission.assign(2, 1.0);
-    in.index.assign(1, 1.0);
+    in.refractive_index.assign(1, 1.0);
     in.weight.assign(2, 1.0); // 3 expected
     EXPECT_THROW(model::fill_table_opencl(in), InputError);
     in.weight.push_back(1.0);

@@ -171,5 +171,30 @@ TEST(RoughStack, MirrorIsZeroAndLobeIsTheClosedForm) {
     EXPECT_GT(r.surface_lobe(0.7, 0.7, pi), 10.0 * r.surface_lobe(0.7, 0.7, 0.5 * pi));
 }
 
+TEST(RoughStack, BatchedEvaluationEqualsPointwise) {
+    // brdf_grid and albedo(span) (one order grid, one order-0 solve for every direction: what the
+    // stream check, the gamut fit and the report use) against brdf() and albedo() per direction,
+    // under a rough, a smooth and no top.
+    const double mus[] = {1.0, 0.6, 0.05};
+    const double phis[] = {0.0, 2.0, pi};
+    for (const Top top : {Top::Rough, Top::Smooth, Top::None}) {
+        Stack s = rough_half_space(rte::Medium{0.95, hg_beta(0.6, 200)}, 0.1, rte::Masking::HeightCorrelated);
+        s.top = top;
+        const rte::Reflection r = solve(s, 16);
+        const std::vector<double> grid = r.brdf_grid(mus, phis);
+        const std::vector<double> albedo = r.albedo(std::span<const double>(mus));
+        for (std::size_t i = 0; i < 3; ++i) {
+            EXPECT_NEAR(albedo[i], r.albedo(mus[i]), 1e-11) << "top " << static_cast<int>(top);
+            for (std::size_t o = 0; o < 3; ++o)
+                for (std::size_t p = 0; p < 3; ++p) {
+                    const double one = r.brdf(mus[i], mus[o], phis[p]);
+                    // Equal up to the rounding of differently sized products (a mix-up of
+                    // directions would differ at O(1)).
+                    EXPECT_NEAR(grid[(i * 3 + o) * 3 + p], one, 1e-9 * one) << "top " << static_cast<int>(top);
+                }
+        }
+    }
+}
+
 } // namespace
 } // namespace brdf::test

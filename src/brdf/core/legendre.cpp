@@ -21,9 +21,12 @@ void normalized_legendre(int m, int lmax, double x, std::span<double> out) {
     // recurrence from a denormal would amplify its few bits into O(1) garbage further up in l. So the
     // recurrence runs on scaled values v_l = Pbar_l^m * 2^-e, starting from v_m = 1 with
     // e = log2(Pbar_m^m), rescaling when v grows; values are unscaled on output (true zeros stay 0).
-    double e = 0.0;
-    for (int k = 1; k <= m; ++k) e += 0.5 * std::log2((2.0 * k - 1.0) / (2.0 * k)) + std::log2(s);
-    const auto emit = [&](std::size_t i, double v) { out[i] = (e < -1100.0) ? 0.0 : v * std::exp2(e); };
+    // prod_k (2k - 1)/(2k) ~ 1/sqrt(pi m) stays normal for any m: one log of it, one of s.
+    double ratio = 1.0;
+    for (int k = 1; k <= m; ++k) ratio *= (2.0 * k - 1.0) / (2.0 * k);
+    double e = m == 0 ? 0.0 : 0.5 * std::log2(ratio) + m * std::log2(s);
+    double scale = std::exp2(e);
+    const auto emit = [&](std::size_t i, double v) { out[i] = (e < -1100.0) ? 0.0 : v * scale; };
     double prev = 1.0;
     emit(0, prev);
     if (lmax == m) return;
@@ -40,6 +43,7 @@ void normalized_legendre(int m, int lmax, double x, std::span<double> out) {
         if (e < 0.0 && std::abs(cur) > 0x1p+100) { // keep v moderate while the true values are tiny
             prev *= 0x1p-100, cur *= 0x1p-100;
             e += 100.0;
+            scale = std::exp2(e);
         }
         emit(static_cast<std::size_t>(l - m), cur);
     }

@@ -140,6 +140,66 @@ void LuFactor::solve(std::span<double> b) const {
     std::copy(m.data().begin(), m.data().end(), b.begin());
 }
 
+ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d)
+    : m_h(g), m_t(g.rows(), g.cols()), m_q(g.rows(), g.cols()), m_z(g.rows(), g.cols()) {
+    const int n = g.rows();
+    if (g.cols() != n || static_cast<int>(d.size()) != n)
+        throw InternalError(cat("ShiftedPencil: shapes ", g.rows(), "x", g.cols(), " and ", d.size(), " differ"));
+    for (int i = 0; i < n; ++i) m_t(i, i) = d[static_cast<std::size_t>(i)]; // already upper triangular
+    const lapack_int info = LAPACKE_dgghrd(LAPACK_ROW_MAJOR, 'I', 'I', n, 1, n, m_h.data().data(), n,
+                                           m_t.data().data(), n, m_q.data().data(), n, m_z.data().data(), n);
+    if (info != 0) throw NumericalError(cat("ShiftedPencil: LAPACK dgghrd failed (info ", info, ", size ", n, ")"));
+}
+
+void ShiftedPencil::solve(double u, std::span<double> b) const {
+    const int n = size();
+    std::vector<double> y(static_cast<std::size_t>(n), 0.0);
+    for (int i = 0; i < n; ++i) {
+        double v = 0.0;
+        for (int k = 0; k < n; ++k) v += m_q(k, i) * b[static_cast<std::size_t>(k)];
+        y[static_cast<std::size_t>(i)] = v;
+    }
+    // Gaussian elimination on the upper Hessenberg T + u H; a pivot is one of two adjacent rows.
+    Matrix a(n, n);
+    for (int i = 0; i < n; ++i)
+        for (int j = std::max(0, i - 1); j < n; ++j) a(i, j) = m_t(i, j) + u * m_h(i, j);
+    for (int k = 0; k + 1 < n; ++k) {
+        if (std::abs(a(k + 1, k)) > std::abs(a(k, k))) {
+            for (int j = k; j < n; ++j) std::swap(a(k, j), a(k + 1, j));
+            std::swap(y[static_cast<std::size_t>(k)], y[static_cast<std::size_t>(k + 1)]);
+        }
+        if (a(k + 1, k) == 0.0) continue;
+        if (a(k, k) == 0.0) throw NumericalError(cat("ShiftedPencil: singular at u = ", u, " (size ", n, ")"));
+        const double l = a(k + 1, k) / a(k, k);
+        for (int j = k + 1; j < n; ++j) a(k + 1, j) -= l * a(k, j);
+        y[static_cast<std::size_t>(k + 1)] -= l * y[static_cast<std::size_t>(k)];
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        double v = y[static_cast<std::size_t>(i)];
+        for (int j = i + 1; j < n; ++j) v -= a(i, j) * y[static_cast<std::size_t>(j)];
+        if (!(a(i, i) != 0.0) || !std::isfinite(v / a(i, i)))
+            throw NumericalError(cat("ShiftedPencil: singular at u = ", u, " (size ", n, ")"));
+        y[static_cast<std::size_t>(i)] = v / a(i, i);
+    }
+    for (int i = 0; i < n; ++i) {
+        double v = 0.0;
+        for (int k = 0; k < n; ++k) v += m_z(i, k) * y[static_cast<std::size_t>(k)];
+        b[static_cast<std::size_t>(i)] = v;
+    }
+}
+
+void ShiftedPencil::solve(std::span<const double> u, Matrix& b) const {
+    if (b.rows() != size() || b.cols() != static_cast<int>(u.size()))
+        throw InternalError(cat("ShiftedPencil: right-hand sides ", b.rows(), "x", b.cols(), " for size ", size(),
+                                " and ", u.size(), " shifts"));
+    std::vector<double> column(static_cast<std::size_t>(size()));
+    for (int e = 0; e < b.cols(); ++e) {
+        for (int i = 0; i < size(); ++i) column[static_cast<std::size_t>(i)] = b(i, e);
+        solve(u[static_cast<std::size_t>(e)], column);
+        for (int i = 0; i < size(); ++i) b(i, e) = column[static_cast<std::size_t>(i)];
+    }
+}
+
 Matrix solve(const Matrix& a, Matrix b) {
     LuFactor(a).solve(b);
     return b;

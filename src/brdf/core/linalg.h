@@ -61,6 +61,24 @@ private:
     std::vector<int> m_pivot;
 };
 
+/// Solves (D + u G) x = b for many scalars u, D diagonal: one Hessenberg-triangular reduction of
+/// the pencil, G = Q H Z^T and D = Q T Z^T (LAPACK dgghrd; orthogonal, so backward stable), makes
+/// each solve the O(n^2) Hessenberg system (T + u H) y = Q^T b, x = Z y, instead of an O(n^3) LU
+/// per u (the frequency-response method of Laub 1981, IEEE TAC 26, 407). Throws NumericalError
+/// when T + u H is singular to working precision.
+class ShiftedPencil {
+public:
+    ShiftedPencil(const Matrix& g, std::span<const double> d);
+    /// x = (D + u G)^-1 b, in place.
+    void solve(double u, std::span<double> b) const;
+    /// Column e of B (n x k): (D + u_e G)^-1 B(., e), in place.
+    void solve(std::span<const double> u, Matrix& b) const;
+    int size() const { return m_h.rows(); }
+
+private:
+    Matrix m_h, m_t, m_q, m_z;
+};
+
 /// A^-1 B.
 Matrix solve(const Matrix& a, Matrix b);
 /// A^-1 (LU with partial pivoting; NumericalError when singular).

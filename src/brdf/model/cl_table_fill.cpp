@@ -23,7 +23,7 @@ namespace brdf::model {
 static_assert(sizeof(FillParams) == 112);
 static_assert(offsetof(FillParams, fourier_offset) == 0);
 static_assert(offsetof(FillParams, phase_offset) == 8);
-static_assert(offsetof(FillParams, index_offset) == 16);
+static_assert(offsetof(FillParams, refractive_index_offset) == 16);
 static_assert(offsetof(FillParams, transmission_offset) == 24);
 static_assert(offsetof(FillParams, weight_offset) == 32);
 static_assert(offsetof(FillParams, tau_offset) == 40);
@@ -65,7 +65,7 @@ void validate(const FillInputs& in) {
     const auto s = static_cast<std::size_t>(in.samples);
     require_size(in.fourier.size(), static_cast<std::size_t>(in.orders) * 3 * e * e, "fourier");
     require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)), "phase");
-    require_size(in.index.size(), s, "index");
+    require_size(in.refractive_index.size(), s, "refractive_index");
     require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");
     require_size(in.weight.size(), s * 3, "weight");
     require_size(in.tau.size(), s, "tau");
@@ -86,8 +86,8 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     validate(in);
     FillParams params{};
     std::vector<double> data;
-    data.reserve(in.fourier.size() + in.phase.size() + in.index.size() + in.transmission.size() + in.weight.size() +
-                 in.tau.size() + in.lobe_fresnel.size() + 1);
+    data.reserve(in.fourier.size() + in.phase.size() + in.refractive_index.size() + in.transmission.size() +
+                 in.weight.size() + in.tau.size() + in.lobe_fresnel.size() + 1);
     auto append = [&data](const std::vector<double>& v) {
         const auto offset = static_cast<brdf_i64>(data.size());
         data.insert(data.end(), v.begin(), v.end());
@@ -95,7 +95,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     };
     params.fourier_offset = append(in.fourier);
     params.phase_offset = append(in.phase);
-    params.index_offset = append(in.index);
+    params.refractive_index_offset = append(in.refractive_index);
     params.transmission_offset = append(in.transmission);
     params.weight_offset = append(in.weight);
     params.tau_offset = append(in.tau);

@@ -106,9 +106,10 @@ std::vector<double> diffuse_transmittance(const material::MaterialSpec& spec, co
         const auto hemispherical = [&](double a) {
             const rte::Reflection r = order_zero(spec, optics.optics[k], streams, a, std::nullopt);
             n = r.setup().layers.back().index;
+            const std::vector<double> diffuse = r.albedo(rule.x);
             double sum = 0.0;
             for (std::size_t q = 0; q < rule.x.size(); ++q)
-                sum += 2.0 * rule.w[q] * rule.x[q] * (r.albedo(rule.x[q]) + r.mirror(rule.x[q]));
+                sum += 2.0 * rule.w[q] * rule.x[q] * (diffuse[q] + r.mirror(rule.x[q]));
             return sum;
         };
         const double r0 = hemispherical(0.0), d_half = hemispherical(0.5) - r0, d_one = hemispherical(1.0) - r0;

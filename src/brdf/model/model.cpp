@@ -51,22 +51,21 @@ Rgb weighted(const std::vector<WavelengthSolution>& samples, auto&& value) {
     return out;
 }
 
-// Largest relative difference of the BRDF between two solves, over a spread of directions; values
-// below 1e-2 of the largest are compared on that absolute scale (their relative error is noise).
+// The directions where the stream check and the gamut fit probe the BRDF: 0, 45, 75, 85 and 89.5
+// degrees (the last about the most grazing bin centre of a MERL table) for both directions, on the
+// light's side, across and on the mirror side.
+constexpr double probe_mus[] = {1.0, 0.7071, 0.2588, 0.0872, 0.0087};
+constexpr double probe_phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
+
+// Largest relative difference of the BRDF between two solves at the probes; values below 1e-2 of
+// the largest are compared on that absolute scale (their relative error is noise).
 double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
-    // 0, 45, 75, 85 and 89.5 degrees: the last is about the most grazing bin centre of a MERL table.
-    const double mus[] = {1.0, 0.7071, 0.2588, 0.0872, 0.0087};
-    const double phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
-    std::vector<std::pair<double, double>> values;
+    const std::vector<double> x = a.brdf_grid(probe_mus, probe_phis), y = b.brdf_grid(probe_mus, probe_phis);
     double largest = 0.0;
-    for (double mi : mus)
-        for (double mo : mus)
-            for (double phi : phis) {
-                values.emplace_back(a.brdf(mi, mo, phi), b.brdf(mi, mo, phi));
-                largest = std::max(largest, std::abs(values.back().second));
-            }
+    for (double v : y) largest = std::max(largest, std::abs(v));
     double worst = 0.0;
-    for (const auto& [x, y] : values) worst = std::max(worst, std::abs(x - y) / std::max(std::abs(y), 1e-2 * largest));
+    for (std::size_t k = 0; k < x.size(); ++k)
+        worst = std::max(worst, std::abs(x[k] - y[k]) / std::max(std::abs(y[k]), 1e-2 * largest));
     return worst;
 }
 
@@ -404,24 +403,35 @@ void fit_into_gamut(SolvedMaterial& m) {
     material::GamutFitInput in;
     in.material = m.spec.name;
     in.space = m.spec.colorspace;
-    const double mus[] = {1.0, 0.7071, 0.2588, 0.0872, 0.0087}; // 0, 45, 75, 85, 89.5 degrees
-    const double phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
     const double reflectance_mus[] = {1.0, std::cos(std::numbers::pi / 6.0), 0.5, std::cos(4.0 * std::numbers::pi / 9.0)};
-    for (const WavelengthSolution& s : m.samples) {
-        in.weights.push_back(s.weight);
-        for (double mi : mus)
-            for (double mo : mus)
-                for (double phi : phis)
-                    in.brdf.push_back(s.dipole ? s.dipole->brdf(mi, mo, phi) : s.reflection.brdf(mi, mo, phi));
-        for (double mu : reflectance_mus) {
-            const double diffuse = s.dipole ? s.dipole->albedo(mu) : s.reflection.albedo(mu);
-            const double mirror = s.dipole ? s.dipole->mirror(mu) : s.reflection.mirror(mu);
-            in.brdf.push_back(diffuse);
-            in.brdf.push_back(mirror);
-            in.reflectance.push_back(diffuse + mirror);
+    std::vector<std::vector<double>> probes(m.samples.size());
+    // Independent per sample: one thread per core; every direction of a sample from one grid.
+    parallel_for(static_cast<int>(m.samples.size()), available_cpus(), [&](int k) {
+        const WavelengthSolution& s = m.samples[k];
+        std::vector<double>& p = probes[k];
+        if (s.dipole) {
+            for (double mi : probe_mus)
+                for (double mo : probe_mus)
+                    for (double phi : probe_phis) p.push_back(s.dipole->brdf(mi, mo, phi));
+        } else {
+            p = s.reflection.brdf_grid(probe_mus, probe_phis);
         }
+        const std::vector<double> diffuse = s.dipole ? std::vector<double>{} : s.reflection.albedo(reflectance_mus);
+        for (std::size_t j = 0; j < std::size(reflectance_mus); ++j) {
+            const double mu = reflectance_mus[j];
+            p.push_back(s.dipole ? s.dipole->albedo(mu) : diffuse[j]);
+            p.push_back(s.dipole ? s.dipole->mirror(mu) : s.reflection.mirror(mu));
+        }
+    });
+    // Per sample: the BRDF probes, then (diffuse albedo, mirror) per reflectance cosine.
+    const std::size_t brdf_probes = std::size(probe_mus) * std::size(probe_mus) * std::size(probe_phis);
+    for (std::size_t k = 0; k < m.samples.size(); ++k) {
+        in.weights.push_back(m.samples[k].weight);
+        in.brdf.insert(in.brdf.end(), probes[k].begin(), probes[k].end());
+        for (std::size_t j = 0; j < std::size(reflectance_mus); ++j)
+            in.reflectance.push_back(probes[k][brdf_probes + 2 * j] + probes[k][brdf_probes + 2 * j + 1]);
     }
-    in.probe_count = std::size(mus) * std::size(mus) * std::size(phis) + 2 * std::size(reflectance_mus);
+    in.probe_count = brdf_probes + 2 * std::size(reflectance_mus);
     in.reflectance_count = std::size(reflectance_mus);
     const material::GamutFit fit = material::fit_into_gamut(in); // checks the luminance is kept
     for (std::size_t k = 0; k < m.samples.size(); ++k) m.samples[k].weight = fit.weights[k];
@@ -447,6 +457,26 @@ Rgb SolvedMaterial::albedo(double theta_i) const {
     const double mi = std::cos(theta_i);
     return material::clip_negative(weighted(
         samples, [&](const WavelengthSolution& s) { return s.dipole ? s.dipole->albedo(mi) : s.reflection.albedo(mi); }));
+}
+
+std::vector<Rgb> SolvedMaterial::albedo(std::span<const double> theta_i) const {
+    std::vector<double> mus;
+    for (double t : theta_i) mus.push_back(std::cos(t));
+    std::vector<std::vector<double>> per_sample(samples.size());
+    parallel_for(static_cast<int>(samples.size()), available_cpus(), [&](int k) {
+        const WavelengthSolution& s = samples[k];
+        if (!s.dipole) {
+            per_sample[k] = s.reflection.albedo(mus);
+            return;
+        }
+        for (double mu : mus) per_sample[k].push_back(s.dipole->albedo(mu));
+    });
+    std::vector<Rgb> out(mus.size(), Rgb{0.0, 0.0, 0.0});
+    for (std::size_t k = 0; k < samples.size(); ++k)
+        for (std::size_t e = 0; e < mus.size(); ++e)
+            for (int c = 0; c < 3; ++c) out[e][c] += samples[k].weight[c] * per_sample[k][e];
+    for (Rgb& v : out) v = material::clip_negative(v);
+    return out;
 }
 
 Rgb SolvedMaterial::mirror(double theta_i) const {

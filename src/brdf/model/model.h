@@ -72,6 +72,8 @@ struct SolvedMaterial {
     Rgb brdf(double theta_i, double theta_o, double phi) const;
     /// Directional-hemispherical reflectance of the diffuse part.
     Rgb albedo(double theta_i) const;
+    /// albedo() at each angle: every sample solved once for all of them, one sample per core.
+    std::vector<Rgb> albedo(std::span<const double> theta_i) const;
     /// The interface's mirror reflectance (0 with surface "none").
     Rgb mirror(double theta_i) const;
 };

@@ -195,7 +195,7 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<rte::
                 const double x = static_cast<double>(p) / (in.phase_points - 1); // sin(Theta / 2)
                 in.phase.push_back(0.25 * l.albedo * rte::phase_value(*l.beta, 1.0 - 2.0 * x * x));
             }
-            in.index.push_back(l.index);
+            in.refractive_index.push_back(l.index);
             in.tau.push_back(l.tau);
             for (int p = 0; p < fresnel_table_points; ++p)
                 in.transmission.push_back(r.path_factor(layer, static_cast<double>(p) / (fresnel_table_points - 1)) *
@@ -268,7 +268,7 @@ Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi)
     const double sin_i = std::sqrt(std::max(0.0, 1.0 - mu_i * mu_i)), sin_o = std::sqrt(std::max(0.0, 1.0 - mu_o * mu_o));
     const int kp = in.phase_points, kf = in.fresnel_points;
     for (int s = 0; s < in.samples; ++s) {
-        const double n = in.index[s], inv_n2 = 1.0 / (n * n);
+        const double n = in.refractive_index[s], inv_n2 = 1.0 / (n * n);
         const double ui = std::sqrt(1.0 - sin_i * sin_i * inv_n2), uo = std::sqrt(1.0 - sin_o * sin_o * inv_n2);
         const double cos_scatter = std::clamp(-uo * ui - sin_o * sin_i * inv_n2 * c1, -1.0, 1.0);
         const double phase = lerp_table(&in.phase[static_cast<std::size_t>(s) * kp], kp, std::sqrt(0.5 * (1.0 - cos_scatter)));

@@ -33,7 +33,7 @@ struct FillInputs {
     int samples = 0;
     int phase_points = 0; ///< K: phase[s * K + k] = (w_s / 4) p_s at sin(Theta/2) = k / (K - 1)
     std::vector<double> phase;
-    std::vector<double> index;  ///< [s]: the layer's index (1: no interface)
+    std::vector<double> refractive_index; ///< [s]: the layer's index (1: no interface)
     /// F: transmission[s * F + k] = A(mu_k) / (n sqrt(pi)), mu_k = k / (F - 1): the layer's path
     /// factor (Reflection::path_factor) as a table, so the term's factor is t(mu_o) t(mu_i).
     int fresnel_points = 0;

@@ -42,20 +42,25 @@ PhasePair phase_components(std::span<const double> beta, int m, std::span<const 
     PhasePair out{Matrix(static_cast<int>(mu_rows.size()), static_cast<int>(mu_cols.size())),
                   Matrix(static_cast<int>(mu_rows.size()), static_cast<int>(mu_cols.size()))};
     if (lmax < m) return out; // p^m = 0 beyond the series
-    const Matrix a = legendre_basis(m, lmax, mu_rows);
-    const Matrix b = legendre_basis(m, lmax, mu_cols);
-    // Pbar_l^m(-mu) = (-1)^(l+m) Pbar_l^m(mu): one pass gives both signs.
-    for (int i = 0; i < out.plus.rows(); ++i) {
-        for (int j = 0; j < out.plus.cols(); ++j) {
-            double even = 0.0, odd = 0.0;
-            for (int l = m; l <= lmax; ++l) {
-                const double t = beta[l] * a(i, l - m) * b(j, l - m);
-                ((l - m) % 2 == 0 ? even : odd) += t;
-            }
-            out.plus(i, j) = even + odd;
-            out.minus(i, j) = even - odd;
+    // Pbar_l^m(-mu) = (-1)^(l+m) Pbar_l^m(mu): with A_lb = beta_l Pbar_l^m(row) and B = Pbar_l^m(col),
+    // the even and odd l - m parts are two products, and p+ = even + odd, p- = even - odd.
+    Matrix a = legendre_basis(m, lmax, mu_rows);
+    Matrix b = legendre_basis(m, lmax, mu_cols);
+    Matrix a_odd(a.rows(), a.cols());
+    for (int i = 0; i < a.rows(); ++i)
+        for (int l = m; l <= lmax; ++l) {
+            double& v = a(i, l - m);
+            v *= beta[l];
+            if ((l - m) % 2 == 1) std::swap(v, a_odd(i, l - m));
         }
-    }
+    Matrix even, odd;
+    gemm(a, false, b, true, even);
+    gemm(a_odd, false, b, true, odd);
+    for (int i = 0; i < out.plus.rows(); ++i)
+        for (int j = 0; j < out.plus.cols(); ++j) {
+            out.plus(i, j) = even(i, j) + odd(i, j);
+            out.minus(i, j) = even(i, j) - odd(i, j);
+        }
     return out;
 }
 

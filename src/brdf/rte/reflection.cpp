@@ -136,7 +136,7 @@ Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space)
         Matrix g = Matrix::identity(n);
         for (int i = 0; i < n; ++i)
             for (int j = 0; j < n; ++j) g(i, j) -= 0.5 * om * p.plus(i, j) * s.w[j] + om * s.mu[i] * xwpw(i, j);
-        m_gain.push_back(std::move(g));
+        m_nystrom.emplace_back(g, s.mu);
         Matrix minus_w = p.minus;
         for (int i = 0; i < n; ++i)
             for (int j = 0; j < n; ++j) minus_w(i, j) *= s.w[j];
@@ -217,19 +217,17 @@ Reflector Reflection::half_space_reflector(int m, std::span<const double> u) con
     Reflector r;
     r.nn = x;
     r.en = Matrix(ne, n);
-    for (int e = 0; e < ne; ++e) {
-        Matrix k = m_gain[m];
-        k *= u[e];
-        for (int i = 0; i < n; ++i) k(i, i) += s.mu[i];
-        std::vector<double> rhs(static_cast<std::size_t>(n));
-        for (int i = 0; i < n; ++i) {
-            double xwp = 0.0;
-            for (int j = 0; j < n; ++j) xwp += x(i, j) * s.w[j] * pu.plus(e, j);
-            rhs[i] = 0.25 * om * (pu.minus(e, i) + 2.0 * s.mu[i] * xwp);
-        }
-        LuFactor(std::move(k)).solve(rhs);
-        std::copy(rhs.begin(), rhs.end(), r.en.row(e).begin());
-    }
+    // Right-hand sides, one column per direction: (w/4) [p-(mu_k, u) + 2 mu_k (X W p+(., u))_k].
+    Matrix pw = pu.plus;
+    for (int e = 0; e < ne; ++e)
+        for (int j = 0; j < n; ++j) pw(e, j) *= s.w[j];
+    Matrix rhs;
+    gemm(x, false, pw, true, rhs); // N x E
+    for (int i = 0; i < n; ++i)
+        for (int e = 0; e < ne; ++e) rhs(i, e) = 0.25 * om * (pu.minus(e, i) + 2.0 * s.mu[i] * rhs(i, e));
+    m_nystrom[m].solve(u, rhs);
+    for (int e = 0; e < ne; ++e)
+        for (int i = 0; i < n; ++i) r.en(e, i) = rhs(i, e);
     // (w/4)[p(-u_a, u_b) + 2 u_b (Pu W Rn^T)_ab + 2 u_a (Rn W Pu^T)_ab + 4 u_a u_b (Rn W P- W Rn^T)_ab] / (u_a + u_b)
     const PhasePair puu = phase_components(beta, m, u, u);
     Matrix rnw = r.en, puw = pu.plus;
@@ -414,35 +412,70 @@ double Reflection::brdf(double mu_i, double mu_o, double phi) const {
     return std::max(0.0, sum) * std::numbers::inv_pi + surface_lobe(mu_i, mu_o, phi);
 }
 
+std::vector<double> Reflection::brdf_grid(std::span<const double> mu, std::span<const double> phi) const {
+    const OrderGrid grid = order_grid(mu);
+    const std::size_t ne = grid.mu.size(), np = phi.size();
+    std::vector<double> out(ne * ne * np);
+    for (std::size_t p = 0; p < np; ++p) {
+        std::vector<double> c(static_cast<std::size_t>(m_setup.orders)); // (2 - delta_m0) (-1)^m cos(m phi)
+        for (int m = 0; m < m_setup.orders; ++m)
+            c[m] = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::cos(m * phi[p]);
+        for (std::size_t i = 0; i < ne; ++i)
+            for (std::size_t o = 0; o < ne; ++o) {
+                double sum = 0.0;
+                for (int m = 0; m < m_setup.orders; ++m) sum += c[m] * grid.orders[m](o, i);
+                sum += single_scattering(grid.mu[o], grid.mu[i], phi[p]);
+                out[(i * ne + o) * np + p] =
+                    std::max(0.0, sum) * std::numbers::inv_pi + surface_lobe(grid.mu[i], grid.mu[o], phi[p]);
+            }
+    }
+    return out;
+}
+
 double Reflection::albedo(double mu_i) const {
+    const double mus[1] = {mu_i};
+    return albedo(std::span<const double>(mus)).front();
+}
+
+std::vector<double> Reflection::albedo(std::span<const double> mu_in) const {
     // The streams' own rule, under which the discrete equations conserve energy exactly (mirror +
     // diffuse = 1 at albedo 1): A = T(mu_i) sum_k q_k T_k Z(mu_k, u_i) over the streams that reach air.
-    mu_i = clamp_mu(mu_i);
-    const double mus[1] = {mu_i};
-    const Reflector b = below_top(0, mus);
+    std::vector<double> mus;
+    for (double mu : mu_in) mus.push_back(clamp_mu(mu));
+    const int ne = static_cast<int>(mus.size());
+    std::vector<double> a(mus.size(), 0.0);
     const LayerSetup& top = m_setup.layers.front();
     const Streams& s = top.streams;
-    double a = 0.0;
     switch (m_setup.stack.top) {
-    case Top::None:
-        for (int k = 0; k < s.size(); ++k) a += 2.0 * s.w[k] * s.mu[k] * b.en(0, k);
+    case Top::None: {
+        const Reflector b = below_top(0, mus);
+        for (int e = 0; e < ne; ++e)
+            for (int k = 0; k < s.size(); ++k) a[e] += 2.0 * s.w[k] * s.mu[k] * b.en(e, k);
         return a;
+    }
     case Top::Smooth: {
+        const Reflector b = below_top(0, mus);
         const SmoothInterface f = top_interface(mus);
         const Reflector z = bounce_under_interface(f, b, s);
-        for (int k = 0; k < s.size(); ++k) a += 2.0 * s.w[k] * s.mu[k] * (1.0 - f.f_below[k]) * z.en(0, k);
-        return a * (1.0 - f.f_e[0]);
+        for (int e = 0; e < ne; ++e) {
+            for (int k = 0; k < s.size(); ++k) a[e] += 2.0 * s.w[k] * s.mu[k] * (1.0 - f.f_below[k]) * z.en(e, k);
+            a[e] *= 1.0 - f.f_e[e];
+        }
+        return a;
     }
     case Top::Rough: {
         // Lobe: its closed-form albedo; body: order 0 on a Gauss rule in the outgoing air cosine.
         constexpr int rule = 32;
         const Quadrature g = gauss_legendre(rule, 0.0, 1.0);
         std::vector<double> us = g.x;
-        us.push_back(mu_i);
+        us.insert(us.end(), mus.begin(), mus.end());
         const InterfaceKernels k = rough_kernels(*m_rough, m_rough_pieces, us, 1, m_rough_tolerance, false);
         const Matrix body = rough_body(0, k);
-        for (int j = 0; j < rule; ++j) a += g.w[j] * 2.0 * g.x[j] * body(j, rule);
-        return a + m_rough->albedo_from_air(mu_i, 1e-8).reflected;
+        for (int e = 0; e < ne; ++e) {
+            for (int j = 0; j < rule; ++j) a[e] += g.w[j] * 2.0 * g.x[j] * body(j, rule + e);
+            a[e] += m_rough->albedo_from_air(mus[e], 1e-8).reflected;
+        }
+        return a;
     }
     }
     throw InternalError("reflection: unknown top");

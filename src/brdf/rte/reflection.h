@@ -69,11 +69,17 @@ public:
     /// BRDF (1/sr) without the specular (delta) reflection of smooth interfaces. Under a rough top
     /// (Top::Rough) the whole BRDF: the first-surface lobe exactly (surface_lobe) plus the body.
     double brdf(double mu_i, double mu_o, double phi) const;
+    /// brdf() at every (mu_i, mu_o, phi) of the cosines `mu` (both directions) and azimuths `phi`,
+    /// from one order_grid: value [(i * mu.size() + o) * phi.size() + p]. Evaluating many
+    /// directions, this costs about what one brdf() call does.
+    std::vector<double> brdf_grid(std::span<const double> mu, std::span<const double> phi) const;
     /// Directional-hemispherical reflectance of that BRDF (from the streams' own rule, for which the
     /// discrete equations conserve energy exactly). Under a rough top: of the WHOLE BRDF, lobe
     /// (its closed-form integral) plus body (order 0 on a 32-point Gauss rule in the air cosine);
     /// at albedo 1 it falls short of 1 by the microfacet model's single-scattering loss.
     double albedo(double mu_i) const;
+    /// albedo() at each cosine, from one solve of the order-0 field for all of them.
+    std::vector<double> albedo(std::span<const double> mu_i) const;
     /// Specular reflectance: the top interface's mirror plus every specular path through the stack
     /// (clear layers over index changes); 0 without a smooth top interface (and so under a rough one).
     double mirror(double mu_i) const;
@@ -137,7 +143,9 @@ private:
     StreamPieces m_rough_pieces;
     std::vector<Matrix> m_rough_zq;
     double m_rough_tolerance = 1e-6;
-    std::vector<Matrix> m_gain;    ///< half-space, per order: I - (w/2) P+ W - w M X W P- W (Nystrom kernel)
+    /// Half-space, per order: the Nystrom half-node equation (M + u G) r = rhs(u), with
+    /// G = I - (w/2) P+ W - w M X W P- W, reduced once for every direction u.
+    std::vector<ShiftedPencil> m_nystrom;
     std::vector<Matrix> m_minus_w; ///< half-space, per order: P- W
 };
 
