@@ -42,6 +42,8 @@ TEST(Hash, SpecHashesArePinned) {
         {"cds-yellow", "7c4fd50514e982d7"},         {"gold-ruby-glass", "9dc46c52f3f748d8"},
         {"tio2-hematite-pink", "d15500fe100fcd15"}, {"analytic-hg-orange", "0f2f0e92551f26b2"},
         {"cds-copper-mixture", "693df724ffb7adc2"}, // added with issue 18
+        {"tio2-white-gloss", "39c32e71af656fa5"},   {"tio2-white-satin", "49ad2ab72950d810"}, // issue 16
+        {"tio2-white-matte", "da8fde8975d6d0b0"},
     };
     const auto specs = material::load_specs(source_dir() / "examples" / "catalogue.json");
     ASSERT_EQ(specs.size(), pinned.size());

@@ -299,7 +299,7 @@ TEST(SpecGood, HashesOfCheckedInSpecsArePinned) {
         {"examples/catalogue.json",
          {"7d8e9b2438246122", "9bfe6a1413f737d1", "43426795aa9f24f7", "b555a77bc3bf00b5",
           "7c4fd50514e982d7", "9dc46c52f3f748d8", "d15500fe100fcd15", "0f2f0e92551f26b2",
-          "693df724ffb7adc2"}},
+          "693df724ffb7adc2", "39c32e71af656fa5", "49ad2ab72950d810", "da8fde8975d6d0b0"}},
         {"tests/data/specs/good/catalogue_defaults.json",
          {"e0e035345e16b196", "1cffaf55a2ca4911", "f710615ae2587d3d"}},
         {"tests/data/specs/good/design_example.json",

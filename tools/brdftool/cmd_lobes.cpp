@@ -35,6 +35,7 @@ int run_lobes(LobesFlags& f) {
     std::vector<std::string> labels;
     for (const std::string& input : f.inputs) {
         sources.push_back(load_source(input, is_spec_file(input) ? f.material : std::string{}, f.device.device()));
+        sources.back().use_interpolant(); // thousands of directions per curve
         const Source& s = sources.back();
         labels.push_back(s.model ? s.model->spec.name : std::filesystem::path(input).filename().string());
     }

@@ -92,7 +92,15 @@ std::string recorded_material(const std::filesystem::path& table_path, const for
     return name_in(nlohmann::json::parse(in, nullptr, false));
 }
 
+void Source::use_interpolant() {
+    if (!model || interpolant) return;
+    for (const model::WavelengthSolution& s : model->samples)
+        if (s.dipole) return;
+    interpolant = model::prepare_fill(*model);
+}
+
 model::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {
+    if (interpolant) return model::fill_value(*interpolant, theta_i, theta_o, phi);
     if (model) return model->brdf(theta_i, theta_o, phi);
     if (fourier) return formats::evaluate(*fourier, theta_i, theta_o, phi);
     if (rgl) {

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Renders every material of a catalogue (default examples/catalogue.json) into docs/gallery/NAME.png
-# and writes docs/gallery/README.md, a markdown table of the images, for the README gallery. With the
-# default catalogue it also renders the finishes of examples/finishes.json (gloss, satin, matte) and
-# plots their in-plane lobes into docs/gallery/finishes-lobes.png.
+# and writes docs/gallery/README.md, a markdown table of the images, for the README gallery. The
+# catalogue's materials with a rough surface (the seed white in gloss, satin and matte) also get their
+# in-plane lobes plotted into docs/gallery/finishes-lobes.png.
 #
 #   tools/dev/gallery.sh [BRDFTOOL] [CATALOGUE] [OUT_DIR]
 #
@@ -18,8 +18,6 @@ if [[ -z "$tool" ]]; then
   tool=$(ls -t "$root"/build*/bin/brdftool 2>/dev/null | head -n 1 || true)
 fi
 catalogue=${2:-$root/examples/catalogue.json}
-finishes=""
-[[ -z "${2:-}" && -f "$root/examples/finishes.json" ]] && finishes=$root/examples/finishes.json
 out=${3:-$root/docs/gallery}
 size=${GALLERY_SIZE:-256}
 if [[ -z "$tool" || ! -x "$tool" ]]; then
@@ -43,20 +41,16 @@ for name in "${names[@]}"; do
     --environment sky -o "$out/$name.png"
   echo "gallery.sh: $name.png ($((SECONDS - t0)) s)"
 done
-finish_names=()
-if [[ -n "$finishes" ]]; then
-  jq '(.defaults // {}) as $d | .defaults = ($d + {accuracy: "draft"})
-      | .materials |= map(.accuracy = "draft")' "$finishes" > "$tmp/finishes.json"
-  mapfile -t finish_names < <(jq -r '.materials[].name' "$tmp/finishes.json")
+# The rough surfaces: a finish name or {"roughness": ...}, the material's own or the defaults'.
+mapfile -t finish_names < <(jq -r '(.defaults.surface // "smooth") as $d | .materials[]
+    | select((.surface // $d) as $s | ($s | type) == "object" or $s == "gloss" or $s == "satin" or $s == "matte")
+    | .name' "$tmp/catalogue.json")
+if (( ${#finish_names[@]} > 0 )); then
   lobe_inputs=()
   for name in "${finish_names[@]}"; do
-    t0=$SECONDS
-    BRDF_LOG=error "$tool" render "$tmp/finishes.json" --material "$name" --device cpu --size "$size" \
-      --environment sky -o "$out/$name.png"
-    jq --arg n "$name" '.defaults as $d | .materials[] | select(.name == $n) | $d + .' "$tmp/finishes.json" \
+    jq --arg n "$name" '.defaults as $d | .materials[] | select(.name == $n) | $d + .' "$tmp/catalogue.json" \
       > "$tmp/$name.json"
     lobe_inputs+=("$tmp/$name.json")
-    echo "gallery.sh: $name.png ($((SECONDS - t0)) s)"
   done
   t0=$SECONDS
   BRDF_LOG=error "$tool" lobes "${lobe_inputs[@]}" --device cpu --theta-i 45 --log --decades 3 \
@@ -82,17 +76,9 @@ fi
     echo
     echo "## Finishes"
     echo
-    echo "The seed white paint of \`examples/finishes.json\` under a rough air/binder interface (GGX, the"
-    echo "named finishes of docs/spec.md), rendered as above: the first-surface lobe drawn exactly, the body"
-    echo "as the tables hold it. Below, their in-plane lobes at 45 degrees incidence (log scale, three decades)."
-    echo
-    echo "| material | preview | description |"
-    echo "|---|---|---|"
-    for name in "${finish_names[@]}"; do
-      desc=$(jq -r --arg n "$name" '.materials[] | select(.name == $n) | .description // ""' "$tmp/finishes.json" \
-        | sed 's/|/\\|/g')
-      echo "| \`$name\` | ![$name]($name.png) | $desc |"
-    done
+    echo "The seed white paint under a rough air/binder interface (GGX, the named finishes of docs/spec.md):"
+    echo "$(printf '`%s` ' "${finish_names[@]}")above, rendered with the first-surface lobe drawn exactly and the"
+    echo "body as the tables hold it. Their in-plane lobes at 45 degrees incidence (log scale, three decades):"
     echo
     echo "![in-plane lobes of the finishes](finishes-lobes.png)"
   fi

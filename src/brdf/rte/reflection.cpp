@@ -412,7 +412,8 @@ double Reflection::brdf(double mu_i, double mu_o, double phi) const {
     return std::max(0.0, sum) * std::numbers::inv_pi + surface_lobe(mu_i, mu_o, phi);
 }
 
-std::vector<double> Reflection::brdf_grid(std::span<const double> mu, std::span<const double> phi) const {
+std::vector<double> Reflection::brdf_grid(std::span<const double> mu, std::span<const double> phi,
+                                          bool with_lobe) const {
     const OrderGrid grid = order_grid(mu);
     const std::size_t ne = grid.mu.size(), np = phi.size();
     std::vector<double> out(ne * ne * np);
@@ -425,8 +426,8 @@ std::vector<double> Reflection::brdf_grid(std::span<const double> mu, std::span<
                 double sum = 0.0;
                 for (int m = 0; m < m_setup.orders; ++m) sum += c[m] * grid.orders[m](o, i);
                 sum += single_scattering(grid.mu[o], grid.mu[i], phi[p]);
-                out[(i * ne + o) * np + p] =
-                    std::max(0.0, sum) * std::numbers::inv_pi + surface_lobe(grid.mu[i], grid.mu[o], phi[p]);
+                out[(i * ne + o) * np + p] = std::max(0.0, sum) * std::numbers::inv_pi +
+                                             (with_lobe ? surface_lobe(grid.mu[i], grid.mu[o], phi[p]) : 0.0);
             }
     }
     return out;
