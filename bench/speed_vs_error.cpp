@@ -1,4 +1,4 @@
-// Speed against error (docs/benchmarks.md): wall time and BRDF relative error of every way we can
+// Speed against error (docs/speed-vs-error.md): wall time and BRDF relative error of every way we can
 // compute a BRDF, on analytic media and on the example catalogue.
 //
 // Cases: analytic media (isotropic and Henyey-Greenstein g = 0.5, 0.9, 0.99; omega = 0.9, 0.999, 1;

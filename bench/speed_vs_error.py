@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""DISORT rows, plot and report for the speed-against-error benchmark (docs/benchmarks.md).
+"""DISORT rows, plot and report for the speed-against-error benchmark (docs/speed-vs-error.md).
 
 Reads the CSV and the reference values written by bench/speed_vs_error (the C++ program), runs
 DISORT (cdisort 2.1.3 via pydisort) on the same analytic cases at 16, 32 and 68 streams (64 would put
 a Gauss node within 1e-4 of mu0 = cos 30 deg, where cdisort silently moves mu0), appends its rows to
 the CSV, draws bench/results/speed_vs_error.png (time against error, log-log, one curve per method)
-and writes docs/benchmarks.md.
+and writes docs/speed-vs-error.md.
 
 DISORT settings (docs/physics.md section 6): tau = 1e10 over a black floor, phase moments
 PMOM_l = beta_l / (2l + 1), azimuth phi_DISORT = phi_graphics + 180 deg, ACCUR = 0, original
@@ -123,7 +123,7 @@ def main():
     ap.add_argument("--csv", required=True)
     ap.add_argument("--reference", required=True)
     ap.add_argument("--png", default="bench/results/speed_vs_error.png")
-    ap.add_argument("--doc", default="docs/benchmarks.md")
+    ap.add_argument("--doc", default="docs/speed-vs-error.md")
     ap.add_argument("--no-disort", action="store_true")
     args = ap.parse_args()
 

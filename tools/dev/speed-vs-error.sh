@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Speed against error of every BRDF method (docs/benchmarks.md): builds bench/speed_vs_error, runs it
+# Speed against error of every BRDF method (docs/speed-vs-error.md): builds bench/speed_vs_error, runs it
 # on the analytic media and the example catalogue (spectrum "rgb"), then bench/speed_vs_error.py adds
 # DISORT rows (pip install pydisort), draws bench/results/speed_vs_error.png and writes
-# docs/benchmarks.md. About 15 minutes on 2 cores.
+# docs/speed-vs-error.md. About 15 minutes on 2 cores.
 #   tools/dev/speed-vs-error.sh [BUILD_DIR]      (default: build-bench; JOBS=N for the build)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
@@ -15,4 +15,4 @@ mkdir -p bench/results
     --reference-json bench/results/speed_vs_error_reference.json
 python3 bench/speed_vs_error.py --csv bench/results/speed_vs_error.csv \
     --reference bench/results/speed_vs_error_reference.json \
-    --png bench/results/speed_vs_error.png --doc docs/benchmarks.md
+    --png bench/results/speed_vs_error.png --doc docs/speed-vs-error.md
