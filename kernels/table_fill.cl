@@ -112,22 +112,24 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         const double c1 = cos(phi);
         double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
         __global const double* fourier = data + p.fourier_offset;
-        for (int m = 0; m < p.orders; ++m) {
-            for (int c = 0; c < 3; ++c) {
-                __global const double* f = fourier + (((long)m * 3 + c) * e) * e;
-                double v = 0.0;
-                for (int a = 0; a < 4; ++a) {
-                    __global const double* row = f + (long)so_idx[a] * e;
-                    v += so_w[a] * (si_w[0] * row[si_idx[0]] + si_w[1] * row[si_idx[1]] + si_w[2] * row[si_idx[2]] +
-                                    si_w[3] * row[si_idx[3]]);
+        const int mp = (p.orders + TF_ORDER_BLOCK - 1) / TF_ORDER_BLOCK * TF_ORDER_BLOCK;
+        for (int m0 = 0; m0 < p.orders; m0 += TF_ORDER_BLOCK) {
+            double acc[3 * TF_ORDER_BLOCK];
+            for (int k = 0; k < 3 * TF_ORDER_BLOCK; ++k) acc[k] = 0.0;
+            for (int a = 0; a < 4; ++a)
+                for (int b = 0; b < 4; ++b) {
+                    const double w = so_w[a] * si_w[b];
+                    __global const double* f = fourier + (((long)so_idx[a] * e + si_idx[b]) * mp + m0) * 3;
+                    for (int k = 0; k < 3 * TF_ORDER_BLOCK; ++k) acc[k] += w * f[k];
                 }
-                if (c == 0) out0 += v * cm;
-                else if (c == 1) out1 += v * cm;
-                else out2 += v * cm;
+            for (int j = 0; j < TF_ORDER_BLOCK; ++j) {
+                out0 += acc[3 * j] * cm;
+                out1 += acc[3 * j + 1] * cm;
+                out2 += acc[3 * j + 2] * cm;
+                const double next = 2.0 * c1 * cm - cm_prev;
+                cm_prev = cm;
+                cm = next;
             }
-            const double next = 2.0 * c1 * cm - cm_prev;
-            cm_prev = cm;
-            cm = next;
         }
         // Single scattering with the full phase function, per sample and layer (its own refraction).
         const double sin_i = sqrt(max0_ref(1.0 - mu_i * mu_i)), sin_o = sqrt(max0_ref(1.0 - mu_o * mu_o));

@@ -14,9 +14,12 @@
 #define TF_CELLS 1458000
 /// formats::BrdfTable::no_data
 #define TF_NO_DATA (-1.0)
+/// brdf::model::fill_order_block: the Fourier orders of one grid node are stored in blocks of this
+/// many (the last padded with zeros), each order's three channels together.
+#define TF_ORDER_BLOCK 8
 
 typedef struct FillParams {
-    brdf_i64 fourier_offset;      ///< FillInputs::fourier, orders * 3 * grid * grid
+    brdf_i64 fourier_offset;      ///< FillInputs::fourier, grid * grid * padded orders * 3
     brdf_i64 phase_offset;        ///< FillInputs::phase, samples * phase_points
     brdf_i64 refractive_index_offset; ///< FillInputs::refractive_index, samples
     brdf_i64 transmission_offset; ///< FillInputs::transmission, samples * fresnel_points

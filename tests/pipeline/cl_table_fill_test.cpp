@@ -151,7 +151,7 @@ TEST(ClTableFillInputs, InconsistentInputsAreRefused) {
     model::FillInputs in;
     in.grid = 3;
     in.orders = 2;
-    in.fourier.assign(2 * 3 * 3 * 3 - 1, 0.0);
+    in.fourier.assign(static_cast<std::size_t>(model::padded_orders(2)) * 3 * 3 * 3 - 1, 0.0);
     EXPECT_THROW(model::fill_table_opencl(in), InputError);
     in.fourier.push_back(0.0);
     in.samples = 1;

@@ -7,11 +7,17 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/progress.h>
 #include <brdf/preview/image.h>
 #include <brdf/preview/lobes.h>
 #include <brdf/preview/render.h>
 
+#include <chrono>
+#include <cstdio>
 #include <memory>
+#include <optional>
+
+#include <unistd.h>
 
 namespace brdf::tool {
 namespace {
@@ -31,11 +37,17 @@ int run_lobes(LobesFlags& f) {
     for (double t : f.theta_i)
         if (!(t >= 0.0 && t < 90.0)) throw InputError(cat("lobes: --theta-i must be in [0, 90) degrees (got ", t, ")"));
 
+    const auto t0 = std::chrono::steady_clock::now();
+    ProgressLine line(isatty(STDERR_FILENO) ? ProgressLine::terminal() : ProgressLine::Options{});
+    std::optional<Progress> progress(std::in_place, "lobes", std::vector<ProgressStage>{{"solve", 0.8}, {"plot", 0.2}},
+                                     &line);
+    progress->stage("solve");
     std::vector<Source> sources;
     std::vector<std::string> labels;
     for (const std::string& input : f.inputs) {
         sources.push_back(load_source(input, is_spec_file(input) ? f.material : std::string{}, f.device.device()));
         sources.back().use_interpolant(); // thousands of directions per curve
+        progress->advance(static_cast<double>(sources.size()) / static_cast<double>(f.inputs.size()));
         const Source& s = sources.back();
         labels.push_back(s.model ? s.model->spec.name : std::filesystem::path(input).filename().string());
     }
@@ -48,9 +60,12 @@ int run_lobes(LobesFlags& f) {
                                                  s->colorspace()),
                               t, {}});
         }
+    progress->stage("plot");
     const preview::Image image = preview::plot_lobes(curves, f.options);
     preview::write_image(image, f.output, {0.0, preview::ToneCurve::Clamp});
-    log::info("wrote ", f.output);
+    progress.reset();
+    std::fprintf(stderr, "brdftool lobes: %zu curves -> %s (%s)\n", curves.size(), f.output.c_str(),
+                 format_duration(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()).c_str());
     return 0;
 }
 

@@ -7,6 +7,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/progress.h>
 #include <brdf/core/threads.h>
 #include <brdf/model/table_fill.h>
 #include <brdf/preview/image.h>
@@ -14,8 +15,12 @@
 #include <brdf/preview/render.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <memory>
 #include <optional>
+
+#include <unistd.h>
 
 namespace brdf::tool {
 namespace {
@@ -35,7 +40,13 @@ int run_render(RenderFlags& f) {
     const preview::ToneOptions tone{f.exposure, preview::parse_tone_curve(f.tone)};
     preview::check_options(f.options);
 
+    const auto t0 = std::chrono::steady_clock::now();
+    ProgressLine line(isatty(STDERR_FILENO) ? ProgressLine::terminal() : ProgressLine::Options{});
+    std::optional<Progress> progress(std::in_place, f.input, std::vector<ProgressStage>{{"solve", 0.6}, {"render", 0.4}},
+                                     &line);
+    progress->stage("solve");
     const Source source = load_source(f.input, f.material, f.device.device());
+    progress->stage("render");
     preview::Image image;
     if (source.model) {
         image = preview::render_material(*source.model, f.options); // mirror or rough lobe as the surface has
@@ -53,7 +64,10 @@ int run_render(RenderFlags& f) {
             f.options);
     }
     preview::write_image(image, f.output, tone);
-    log::info("wrote ", f.output);
+    progress.reset();
+    // The summary line, always (terminal or not), as compute's.
+    std::fprintf(stderr, "brdftool render: %d x %d -> %s (%s)\n", f.options.size, f.options.size, f.output.c_str(),
+                 format_duration(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()).c_str());
     return 0;
 }
 

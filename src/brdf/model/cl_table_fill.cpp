@@ -46,6 +46,7 @@ static_assert(TF_THETA_H_BINS == formats::theta_h_bins);
 static_assert(TF_THETA_D_BINS == formats::theta_d_bins);
 static_assert(TF_PHI_D_BINS == formats::phi_d_bins);
 static_assert(TF_NO_DATA == formats::BrdfTable::no_data);
+static_assert(TF_ORDER_BLOCK == fill_order_block);
 
 namespace {
 
@@ -63,7 +64,7 @@ void validate(const FillInputs& in) {
                              in.fresnel_points, " points (at least 2 each)"));
     const auto e = static_cast<std::size_t>(std::max(0, in.grid));
     const auto s = static_cast<std::size_t>(in.samples);
-    require_size(in.fourier.size(), static_cast<std::size_t>(in.orders) * 3 * e * e, "fourier");
+    require_size(in.fourier.size(), static_cast<std::size_t>(padded_orders(in.orders)) * 3 * e * e, "fourier");
     require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)), "phase");
     require_size(in.refractive_index.size(), s, "refractive_index");
     require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");

@@ -171,7 +171,8 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<rte::
     const int e = material.settings.table_grid;
     in.grid = e;
     for (std::size_t k : which) in.orders = std::max(in.orders, material.samples[k].reflection.orders());
-    in.fourier.assign(static_cast<std::size_t>(in.orders) * 3 * e * e, 0.0);
+    const int mp = padded_orders(in.orders);
+    in.fourier.assign(static_cast<std::size_t>(mp) * 3 * e * e, 0.0);
     in.phase_points = phase_table_points;
     in.fresnel_points = fresnel_table_points;
     const double inv_sqrt_pi = 1.0 / std::sqrt(std::numbers::pi);
@@ -181,12 +182,12 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<rte::
         const Rgb& weight = weights[j];
         for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
             const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::numbers::inv_pi;
-            for (int c = 0; c < 3; ++c) {
-                if (weight[c] == 0.0) continue;
-                double* dst = &in.fourier[((static_cast<std::size_t>(m) * 3 + c) * e) * e];
-                for (int o = 0; o < e; ++o)
-                    for (int i = 0; i < e; ++i) dst[o * e + i] += weight[c] * factor * g.orders[m](o, i);
-            }
+            for (int o = 0; o < e; ++o)
+                for (int i = 0; i < e; ++i) {
+                    double* dst = &in.fourier[((static_cast<std::size_t>(o) * e + i) * mp + m) * 3];
+                    const double v = factor * g.orders[m](o, i);
+                    for (int c = 0; c < 3; ++c) dst[c] += weight[c] * v;
+                }
         }
         if (r.setup().stack.top == rte::Top::Rough) continue; // no TMS under a rough surface
         for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer) {
@@ -248,20 +249,23 @@ Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi)
     const Stencil so = stencil(theta_o, e), si = stencil(theta_i, e);
     const double c1 = std::cos(phi);
     double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
-    for (int m = 0; m < in.orders; ++m) {
-        for (int c = 0; c < 3; ++c) {
-            const double* f = &in.fourier[((static_cast<std::size_t>(m) * 3 + c) * e) * e];
-            double v = 0.0;
-            for (int a = 0; a < 4; ++a) {
-                const double* row = f + static_cast<std::size_t>(so.idx[a]) * e;
-                v += so.w[a] * (si.w[0] * row[si.idx[0]] + si.w[1] * row[si.idx[1]] + si.w[2] * row[si.idx[2]] +
-                                si.w[3] * row[si.idx[3]]);
+    const int mp = padded_orders(in.orders);
+    constexpr int block = 3 * fill_order_block;
+    for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
+        double acc[block] = {};
+        for (int a = 0; a < 4; ++a)
+            for (int b = 0; b < 4; ++b) {
+                const double w = so.w[a] * si.w[b];
+                const double* f =
+                    &in.fourier[((static_cast<std::size_t>(so.idx[a]) * e + si.idx[b]) * mp + m0) * 3];
+                for (int k = 0; k < block; ++k) acc[k] += w * f[k];
             }
-            out[c] += v * cm;
+        for (int j = 0; j < fill_order_block; ++j) {
+            for (int c = 0; c < 3; ++c) out[c] += acc[3 * j + c] * cm;
+            const double next = 2.0 * c1 * cm - cm_prev;
+            cm_prev = cm;
+            cm = next;
         }
-        const double next = 2.0 * c1 * cm - cm_prev;
-        cm_prev = cm;
-        cm = next;
     }
     // Single scattering with the full phase function, per sample (its own refraction). Snell:
     // sin(theta inside) = sin(theta in air) / n, so only the cosines inside need a square root.

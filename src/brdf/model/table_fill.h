@@ -22,11 +22,19 @@
 
 namespace brdf::model {
 
+/// Orders per block of FillInputs::fourier (kernels/table_fill.cl uses the same).
+constexpr int fill_order_block = 8;
+/// M rounded up to whole blocks.
+constexpr int padded_orders(int orders) { return (orders + fill_order_block - 1) / fill_order_block * fill_order_block; }
+
 struct FillInputs {
     int grid = 0;   ///< E: zenith angles theta_a = a / (E - 1) * 90 degrees, a = 0 .. E - 1
     int orders = 0; ///< M
-    /// fourier[((m * 3 + c) * E + o) * E + i]: (2 - delta_m0) (-1)^m R^m_c(theta_o, theta_i) / pi in
-    /// 1/sr, interface factors included, single scattering on the direct paths removed.
+    /// fourier[((o * E + i) * padded_orders(M) + m) * 3 + c]: (2 - delta_m0) (-1)^m R^m_c(theta_o,
+    /// theta_i) / pi in 1/sr, interface factors included, single scattering on the direct paths
+    /// removed; orders M .. padded_orders(M) - 1 are 0. Every order and channel of one grid node lie
+    /// together, in blocks of fill_order_block orders: a cell's interpolation is then 16 taps of
+    /// contiguous blocks, which the compilers vectorise (C++ and OpenCL alike).
     std::vector<double> fourier;
     /// S: single-scattering terms, one per wavelength (or channel) and layer, each with its own
     /// refraction (Reflection::single_scattering).
