@@ -151,53 +151,58 @@ ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d)
     if (info != 0) throw NumericalError(cat("ShiftedPencil: LAPACK dgghrd failed (info ", info, ", size ", n, ")"));
 }
 
-void ShiftedPencil::solve(double u, std::span<double> b) const {
-    const int n = size();
-    std::vector<double> y(static_cast<std::size_t>(n), 0.0);
-    for (int i = 0; i < n; ++i) {
-        double v = 0.0;
-        for (int k = 0; k < n; ++k) v += m_q(k, i) * b[static_cast<std::size_t>(k)];
-        y[static_cast<std::size_t>(i)] = v;
-    }
-    // Gaussian elimination on the upper Hessenberg T + u H; a pivot is one of two adjacent rows.
-    Matrix a(n, n);
+namespace {
+
+// x = (T + u H)^-1 b for the upper Hessenberg T + u H, in place; `work` holds n x n scratch.
+void solve_hessenberg(const Matrix& t, const Matrix& h, double u, double* y, std::vector<double>& work) {
+    const int n = t.rows();
+    work.resize(static_cast<std::size_t>(n) * n);
+    const auto a = [&](int i, int j) -> double& { return work[static_cast<std::size_t>(i) * n + j]; };
     for (int i = 0; i < n; ++i)
-        for (int j = std::max(0, i - 1); j < n; ++j) a(i, j) = m_t(i, j) + u * m_h(i, j);
+        for (int j = std::max(0, i - 1); j < n; ++j) a(i, j) = t(i, j) + u * h(i, j);
+    // Gaussian elimination; a pivot is one of two adjacent rows.
     for (int k = 0; k + 1 < n; ++k) {
         if (std::abs(a(k + 1, k)) > std::abs(a(k, k))) {
             for (int j = k; j < n; ++j) std::swap(a(k, j), a(k + 1, j));
-            std::swap(y[static_cast<std::size_t>(k)], y[static_cast<std::size_t>(k + 1)]);
+            std::swap(y[k], y[k + 1]);
         }
         if (a(k + 1, k) == 0.0) continue;
         if (a(k, k) == 0.0) throw NumericalError(cat("ShiftedPencil: singular at u = ", u, " (size ", n, ")"));
         const double l = a(k + 1, k) / a(k, k);
         for (int j = k + 1; j < n; ++j) a(k + 1, j) -= l * a(k, j);
-        y[static_cast<std::size_t>(k + 1)] -= l * y[static_cast<std::size_t>(k)];
+        y[k + 1] -= l * y[k];
     }
     for (int i = n - 1; i >= 0; --i) {
-        double v = y[static_cast<std::size_t>(i)];
-        for (int j = i + 1; j < n; ++j) v -= a(i, j) * y[static_cast<std::size_t>(j)];
+        double v = y[i];
+        for (int j = i + 1; j < n; ++j) v -= a(i, j) * y[j];
         if (!(a(i, i) != 0.0) || !std::isfinite(v / a(i, i)))
             throw NumericalError(cat("ShiftedPencil: singular at u = ", u, " (size ", n, ")"));
-        y[static_cast<std::size_t>(i)] = v / a(i, i);
+        y[i] = v / a(i, i);
     }
-    for (int i = 0; i < n; ++i) {
-        double v = 0.0;
-        for (int k = 0; k < n; ++k) v += m_z(i, k) * y[static_cast<std::size_t>(k)];
-        b[static_cast<std::size_t>(i)] = v;
-    }
+}
+
+} // namespace
+
+void ShiftedPencil::solve(double u, std::span<double> b) const {
+    Matrix column(size(), 1);
+    for (int i = 0; i < size(); ++i) column(i, 0) = b[static_cast<std::size_t>(i)];
+    const double shift[1] = {u};
+    solve(shift, column);
+    for (int i = 0; i < size(); ++i) b[static_cast<std::size_t>(i)] = column(i, 0);
 }
 
 void ShiftedPencil::solve(std::span<const double> u, Matrix& b) const {
     if (b.rows() != size() || b.cols() != static_cast<int>(u.size()))
         throw InternalError(cat("ShiftedPencil: right-hand sides ", b.rows(), "x", b.cols(), " for size ", size(),
                                 " and ", u.size(), " shifts"));
-    std::vector<double> column(static_cast<std::size_t>(size()));
-    for (int e = 0; e < b.cols(); ++e) {
-        for (int i = 0; i < size(); ++i) column[static_cast<std::size_t>(i)] = b(i, e);
-        solve(u[static_cast<std::size_t>(e)], column);
-        for (int i = 0; i < size(); ++i) b(i, e) = column[static_cast<std::size_t>(i)];
-    }
+    const int k = b.cols();
+    // Y = Q^T B for every column at once, then one Hessenberg solve per column, then X = Z Y.
+    Matrix y;
+    gemm(m_q, true, b, false, y);
+    Matrix yt = transpose(y); // one column per row: contiguous for the solve
+    std::vector<double> work;
+    for (int e = 0; e < k; ++e) solve_hessenberg(m_t, m_h, u[static_cast<std::size_t>(e)], &yt(e, 0), work);
+    gemm(m_z, false, yt, true, b);
 }
 
 Matrix solve(const Matrix& a, Matrix b) {
