@@ -158,9 +158,11 @@ void Reflection::setup_rough() {
     std::sort(edges.begin(), edges.end());
     edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
     m_rough_pieces = stream_pieces(top.streams, edges);
-    // The kernels' quadrature tolerance follows the order tolerance (clamped: below 1e-7 the
-    // per-stream kernels cost much more and the solution's own error dominates).
-    m_rough_tolerance = std::clamp(m_setup.order_tolerance, 1e-7, 1e-4);
+    // The kernels' quadrature tolerance is the requested accuracy (10x the order tolerance; clamped:
+    // below 1e-7 the per-stream kernels cost much more and the solution's own error dominates). On
+    // the seed white in gloss at "default" (1e-4) the tables differ from those with kernels at 1e-5
+    // by 4.5e-6 at most, for a quarter less time.
+    m_rough_tolerance = std::clamp(10.0 * m_setup.order_tolerance, 1e-7, 1e-4);
     const InterfaceKernels k = rough_kernels(*m_rough, m_rough_pieces, {}, m_setup.orders, m_rough_tolerance, true);
     const Streams& s = top.streams;
     const int n = s.size();
