@@ -9,8 +9,6 @@
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
-#include <ImfInputPart.h>
-#include <ImfMultiPartInputFile.h>
 #include <ImfOutputFile.h>
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
@@ -26,7 +24,6 @@ namespace {
 
 using detail::CoreHeader;
 using detail::display;
-using detail::TableIStream;
 using detail::TableOStream;
 
 constexpr const char* channel_names[3] = {"R", "G", "B"};
@@ -100,28 +97,14 @@ BrdfTable read_exr(const std::filesystem::path& path) {
         if (!colorspace) colorspace = colorspace_from_chromaticities(header);
     }
 
-    TableIStream stream(file);
+    // The header is now known to describe exactly one table: allocation is bounded.
     std::array<std::vector<float>, 3> planes;
-    try {
-        Imf::MultiPartInputFile input(stream);
-        Imf::InputPart part(input, 0);
-        const Imath::Box2i dw = part.header().dataWindow();
-        // The header is now known to describe exactly one table: allocation is bounded.
-        Imf::FrameBuffer frame;
-        for (int c = 0; c < 3; ++c) {
-            planes[c].assign(cells, 0.0f);
-            frame.insert(channel_names[c],
-                         Imf::Slice::Make(Imf::FLOAT, planes[c].data(), dw, sizeof(float),
-                                          sizeof(float) * exr_width));
-        }
-        part.setFrameBuffer(frame);
-        part.readPixels(dw.min.y, dw.max.y);
-    } catch (const Error&) {
-        throw;
-    } catch (const std::exception& e) {
-        if (stream.io_error()) throw IoError(*stream.io_error());
-        throw FormatError(cat(display(path), ": OpenEXR: ", e.what()));
+    std::vector<detail::PlaneTarget> targets;
+    for (int c = 0; c < 3; ++c) {
+        planes[c].assign(cells, 0.0f);
+        targets.push_back({channel_names[c], planes[c].data()});
     }
+    detail::read_planes(file, targets);
 
     BrdfTable table;
     table.spec = spec.value_or("");

@@ -2,6 +2,10 @@
 
 #include <formats/exr/exr.h>
 
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputPart.h>
+#include <ImfMultiPartInputFile.h>
 #include <ImfVersion.h>
 
 #include <string_view>
@@ -57,6 +61,25 @@ std::vector<std::string> channel_names(const CoreHeader& header) {
     for (int i = 0; channels && i < channels->num_channels; ++i)
         names.emplace_back(channels->entries[i].name.str ? channels->entries[i].name.str : "");
     return names;
+}
+
+void read_planes(const InputFile& file, const std::vector<PlaneTarget>& planes) {
+    TableIStream stream(file);
+    try {
+        Imf::MultiPartInputFile input(stream);
+        Imf::InputPart part(input, 0);
+        const Imath::Box2i dw = part.header().dataWindow();
+        Imf::FrameBuffer frame;
+        for (const PlaneTarget& p : planes)
+            frame.insert(p.name, Imf::Slice::Make(Imf::FLOAT, p.data, dw, sizeof(float), sizeof(float) * exr_width));
+        part.setFrameBuffer(frame);
+        part.readPixels(dw.min.y, dw.max.y);
+    } catch (const Error&) {
+        throw;
+    } catch (const std::exception& e) {
+        if (stream.io_error()) throw IoError(*stream.io_error());
+        throw FormatError(cat(display(file.path()), ": OpenEXR: ", e.what()));
+    }
 }
 
 } // namespace brdf::formats::detail

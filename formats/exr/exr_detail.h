@@ -175,4 +175,13 @@ void check_table_header(const CoreHeader& header, const std::filesystem::path& p
 /// The part's channel names, in the file's (alphabetical) order.
 std::vector<std::string> channel_names(const CoreHeader& header);
 
+/// A channel to read and where its exr_width-wide float plane goes (sized by the caller).
+struct PlaneTarget {
+    std::string name;
+    float* data = nullptr;
+};
+/// Reads the pixels of part 0 (whose header check_table_header passed) into the planes through the
+/// C++ API; IoError or FormatError naming the path.
+void read_planes(const InputFile& file, const std::vector<PlaneTarget>& planes);
+
 } // namespace brdf::formats::detail

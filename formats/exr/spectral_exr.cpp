@@ -10,8 +10,6 @@
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
-#include <ImfInputPart.h>
-#include <ImfMultiPartInputFile.h>
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
 
@@ -187,25 +185,10 @@ SpectralTable read_spectral_exr(const std::filesystem::path& path) {
     SpectralTable table(wavelengths);
     table.spec = spec.value_or("");
     table.generator = generator.value_or("");
-    detail::TableIStream stream(file);
-    try {
-        Imf::MultiPartInputFile input(stream);
-        Imf::InputPart part(input, 0);
-        const Imath::Box2i dw = part.header().dataWindow();
-        // The header describes exactly one table of at most max_spectral_wavelengths planes.
-        Imf::FrameBuffer frame;
-        for (std::size_t j = 0; j < channels.size(); ++j)
-            frame.insert(channels[j].name,
-                         Imf::Slice::Make(Imf::FLOAT, table.planes[j].data(), dw, sizeof(float),
-                                          sizeof(float) * exr_width));
-        part.setFrameBuffer(frame);
-        part.readPixels(dw.min.y, dw.max.y);
-    } catch (const Error&) {
-        throw;
-    } catch (const std::exception& e) {
-        if (stream.io_error()) throw IoError(*stream.io_error());
-        throw FormatError(cat(display(path), ": OpenEXR: ", e.what()));
-    }
+    // The header describes exactly one table of at most max_spectral_wavelengths planes.
+    std::vector<detail::PlaneTarget> targets;
+    for (std::size_t j = 0; j < channels.size(); ++j) targets.push_back({channels[j].name, table.planes[j].data()});
+    detail::read_planes(file, targets);
     for (std::size_t j = 0; j < channels.size(); ++j) {
         std::vector<float>& plane = table.planes[j];
         for (std::size_t cell = 0; cell < cells; ++cell) {

@@ -34,6 +34,7 @@
 #include <sstream>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 namespace brdf::tool {
@@ -65,6 +66,15 @@ void print_albedo(std::ostream& os, const std::string& how, const std::vector<Al
                       row.rho[1], row.rho[2]);
         os << line;
     }
+}
+
+/// info --json: `out` with its directional albedo rows, to stdout.
+int print_json(nlohmann::ordered_json out, const std::vector<AlbedoRow>& albedo) {
+    nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+    for (const AlbedoRow& row : albedo) rows.push_back({{"theta_i_deg", row.theta_i_deg}, {"rgb", row.rho}});
+    out["directional_albedo"] = rows;
+    std::cout << out.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
+    return 0;
 }
 
 /// "%.6g" of a value: enough digits to compare with a reference, short enough to read.
@@ -120,11 +130,7 @@ int info_fourier(const fs::path& path, std::uintmax_t size, bool json) {
             provenance["metadata"] = b.metadata; // foreign (layerlab writes JSON describing its layers)
         }
         out["provenance"] = provenance;
-        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-        for (const AlbedoRow& row : albedo) rows.push_back({{"theta_i_deg", row.theta_i_deg}, {"rgb", row.rho}});
-        out["directional_albedo"] = rows;
-        std::cout << out.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
-        return 0;
+        return print_json(std::move(out), albedo);
     }
     std::ostringstream os;
     os << path.string() << '\n';
@@ -190,11 +196,7 @@ int info_rgl(const fs::path& path, std::uintmax_t size, bool json) {
             provenance["description"] = b.description;
         }
         out["provenance"] = provenance;
-        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-        for (const AlbedoRow& row : albedo) rows.push_back({{"theta_i_deg", row.theta_i_deg}, {"rgb", row.rho}});
-        out["directional_albedo"] = rows;
-        std::cout << out.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
-        return 0;
+        return print_json(std::move(out), albedo);
     }
     std::ostringstream os;
     os << path.string() << '\n';
@@ -280,12 +282,7 @@ int run_info(const InfoFlags& f) {
                                                   {"max", stats.channels[c].max},
                                                   {"mean", stats.channels[c].mean}};
         out["channels"] = channels;
-        nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-        for (const AlbedoRow& row : albedo)
-            rows.push_back({{"theta_i_deg", row.theta_i_deg}, {"rgb", row.rho}});
-        out["directional_albedo"] = rows;
-        std::cout << out.dump(2) << '\n';
-        return 0;
+        return print_json(std::move(out), albedo);
     }
 
     std::ostringstream os;
