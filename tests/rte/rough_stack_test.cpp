@@ -172,8 +172,9 @@ TEST(RoughStack, MirrorIsZeroAndLobeIsTheClosedForm) {
 }
 
 TEST(RoughStack, BatchedEvaluationEqualsPointwise) {
-    // brdf_grid and albedo(span) (one order grid, one order-0 solve for every direction: what the
-    // stream check, the gamut fit and the report use) against brdf() and albedo() per direction,
+    // brdf_grid, albedo(span) and mirror(span) (one order grid, one order-0 solve for every
+    // direction: what the stream check, the gamut fit, the report and the previews use) against
+    // brdf(), albedo() and mirror() per direction,
     // under a rough, a smooth and no top.
     const double mus[] = {1.0, 0.6, 0.05};
     const double phis[] = {0.0, 2.0, pi};
@@ -183,8 +184,11 @@ TEST(RoughStack, BatchedEvaluationEqualsPointwise) {
         const rte::Reflection r = solve(s, 16);
         const std::vector<double> grid = r.brdf_grid(mus, phis);
         const std::vector<double> albedo = r.albedo(std::span<const double>(mus));
+        const std::vector<double> mirror = r.mirror(std::span<const double>(mus));
         for (std::size_t i = 0; i < 3; ++i) {
             EXPECT_NEAR(albedo[i], r.albedo(mus[i]), 1e-11) << "top " << static_cast<int>(top);
+            EXPECT_NEAR(mirror[i], r.mirror(mus[i]), 1e-12) << "top " << static_cast<int>(top);
+            if (top == Top::Smooth) EXPECT_GT(mirror[i], 0.03); // Fresnel of n 1.5, at least the normal 0.04
             for (std::size_t o = 0; o < 3; ++o)
                 for (std::size_t p = 0; p < 3; ++p) {
                     const double one = r.brdf(mus[i], mus[o], phis[p]);

@@ -419,10 +419,11 @@ void fit_into_gamut(SolvedMaterial& m) {
             p = s.reflection.brdf_grid(probe_mus, probe_phis);
         }
         const std::vector<double> diffuse = s.dipole ? std::vector<double>{} : s.reflection.albedo(reflectance_mus);
+        const std::vector<double> mirror = s.dipole ? std::vector<double>{} : s.reflection.mirror(reflectance_mus);
         for (std::size_t j = 0; j < std::size(reflectance_mus); ++j) {
             const double mu = reflectance_mus[j];
             p.push_back(s.dipole ? s.dipole->albedo(mu) : diffuse[j]);
-            p.push_back(s.dipole ? s.dipole->mirror(mu) : s.reflection.mirror(mu));
+            p.push_back(s.dipole ? s.dipole->mirror(mu) : mirror[j]);
         }
     });
     // Per sample: the BRDF probes, then (diffuse albedo, mirror) per reflectance cosine.
@@ -461,24 +462,42 @@ Rgb SolvedMaterial::albedo(double theta_i) const {
         samples, [&](const WavelengthSolution& s) { return s.dipole ? s.dipole->albedo(mi) : s.reflection.albedo(mi); }));
 }
 
-std::vector<Rgb> SolvedMaterial::albedo(std::span<const double> theta_i) const {
+namespace {
+
+// A per-sample quantity at many angles, weighted into colour: `of(sample, cosines)` gives one value
+// per cosine; the samples are independent (one per core).
+std::vector<Rgb> weighted_at(const std::vector<WavelengthSolution>& samples, std::span<const double> theta_i,
+                             auto&& of) {
     std::vector<double> mus;
     for (double t : theta_i) mus.push_back(std::cos(t));
     std::vector<std::vector<double>> per_sample(samples.size());
-    parallel_for(static_cast<int>(samples.size()), available_cpus(), [&](int k) {
-        const WavelengthSolution& s = samples[k];
-        if (!s.dipole) {
-            per_sample[k] = s.reflection.albedo(mus);
-            return;
-        }
-        for (double mu : mus) per_sample[k].push_back(s.dipole->albedo(mu));
-    });
+    parallel_for(static_cast<int>(samples.size()), available_cpus(), [&](int k) { per_sample[k] = of(samples[k], mus); });
     std::vector<Rgb> out(mus.size(), Rgb{0.0, 0.0, 0.0});
     for (std::size_t k = 0; k < samples.size(); ++k)
         for (std::size_t e = 0; e < mus.size(); ++e)
             for (int c = 0; c < 3; ++c) out[e][c] += samples[k].weight[c] * per_sample[k][e];
     for (Rgb& v : out) v = material::clip_negative(v);
     return out;
+}
+
+} // namespace
+
+std::vector<Rgb> SolvedMaterial::albedo(std::span<const double> theta_i) const {
+    return weighted_at(samples, theta_i, [](const WavelengthSolution& s, const std::vector<double>& mus) {
+        if (!s.dipole) return s.reflection.albedo(mus);
+        std::vector<double> v;
+        for (double mu : mus) v.push_back(s.dipole->albedo(mu));
+        return v;
+    });
+}
+
+std::vector<Rgb> SolvedMaterial::mirror(std::span<const double> theta_i) const {
+    return weighted_at(samples, theta_i, [](const WavelengthSolution& s, const std::vector<double>& mus) {
+        if (!s.dipole) return s.reflection.mirror(mus);
+        std::vector<double> v;
+        for (double mu : mus) v.push_back(s.dipole->mirror(mu));
+        return v;
+    });
 }
 
 Rgb SolvedMaterial::mirror(double theta_i) const {

@@ -76,6 +76,8 @@ struct SolvedMaterial {
     std::vector<Rgb> albedo(std::span<const double> theta_i) const;
     /// The interface's mirror reflectance (0 with surface "none").
     Rgb mirror(double theta_i) const;
+    /// mirror() at each angle: every sample solved once for all of them, one sample per core.
+    std::vector<Rgb> mirror(std::span<const double> theta_i) const;
 };
 
 /// Which wavelengths of a spectrum to solve: where the optics vary smoothly the BRDF is

@@ -45,11 +45,12 @@ Image render_material(const model::SolvedMaterial& material, RenderOptions optio
     const material::ColorSpace space = material.spec.colorspace;
     switch (material.spec.surface.kind) {
     case material::Surface::Smooth: {
-        // The mirror reflectance (an adding solve per call) is smooth in theta: tabulated once and
-        // interpolated linearly, instead of solved at every sub-pixel sample.
+        // The mirror reflectance is smooth in theta: tabulated once (one solve per sample for all
+        // the nodes) and interpolated linearly, instead of solved at every sub-pixel sample.
         constexpr int nodes = 1025;
-        auto table = std::make_shared<std::vector<model::Rgb>>(nodes);
-        parallel_for(nodes, 0, [&](int k) { (*table)[k] = material.mirror(0.5 * std::numbers::pi * k / (nodes - 1)); });
+        std::vector<double> thetas(nodes);
+        for (int k = 0; k < nodes; ++k) thetas[k] = 0.5 * std::numbers::pi * k / (nodes - 1);
+        auto table = std::make_shared<std::vector<model::Rgb>>(material.mirror(thetas));
         options.mirror = in_rec709(
             [table](double theta) {
                 const double t = std::clamp(theta / (0.5 * std::numbers::pi), 0.0, 1.0) * (nodes - 1);

@@ -485,9 +485,23 @@ std::vector<double> Reflection::albedo(std::span<const double> mu_in) const {
 }
 
 double Reflection::mirror(double mu_i) const {
-    if (m_setup.stack.top != Top::Smooth) return 0.0;
-    const double mus[1] = {clamp_mu(mu_i)};
-    return external(0, mus).spec[0];
+    const double mus[1] = {mu_i};
+    return mirror(std::span<const double>(mus)).front();
+}
+
+std::vector<double> Reflection::mirror(std::span<const double> mu_i) const {
+    if (m_setup.stack.top != Top::Smooth) return std::vector<double>(mu_i.size(), 0.0);
+    // In blocks: external() also builds the BRDF between every two of its cosines, which grows as
+    // their square and is not needed here.
+    constexpr std::size_t block = 64;
+    std::vector<double> out;
+    for (std::size_t first = 0; first < mu_i.size(); first += block) {
+        std::vector<double> mus;
+        for (std::size_t k = first; k < std::min(mu_i.size(), first + block); ++k) mus.push_back(clamp_mu(mu_i[k]));
+        const std::vector<double> spec = external(0, mus).spec;
+        out.insert(out.end(), spec.begin(), spec.end());
+    }
+    return out;
 }
 
 } // namespace brdf::rte

@@ -85,6 +85,8 @@ public:
     /// Specular reflectance: the top interface's mirror plus every specular path through the stack
     /// (clear layers over index changes); 0 without a smooth top interface (and so under a rough one).
     double mirror(double mu_i) const;
+    /// mirror() at each cosine, from one solve for all of them.
+    std::vector<double> mirror(std::span<const double> mu_i) const;
     /// The rough top's first-surface reflection lobe f_reflect_air (1/sr; graphics azimuth), never
     /// Fourier expanded: tables add it per cell. 0 unless the top is rough.
     double surface_lobe(double mu_i, double mu_o, double phi) const;

@@ -78,9 +78,9 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
     const double albedo_deg[] = {0.0, 30.0, 60.0, 80.0};
     std::vector<double> albedo_theta;
     for (double deg : albedo_deg) albedo_theta.push_back(deg * std::numbers::pi / 180.0);
-    const std::vector<model::Rgb> diffuse = m.albedo(albedo_theta);
+    const std::vector<model::Rgb> diffuse = m.albedo(albedo_theta), mirror = m.mirror(albedo_theta);
     for (std::size_t k = 0; k < albedo_theta.size(); ++k)
-        albedo.push_back({{"theta_i_deg", albedo_deg[k]}, {"diffuse_rgb", diffuse[k]}, {"mirror_rgb", m.mirror(albedo_theta[k])}});
+        albedo.push_back({{"theta_i_deg", albedo_deg[k]}, {"diffuse_rgb", diffuse[k]}, {"mirror_rgb", mirror[k]}});
     json report = {
         {"name", m.spec.name},
         {"generator", std::string(generator_string)},
