@@ -73,10 +73,13 @@ double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
 
 int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<rte::Stack>& stacks,
                    const rte::ReflectionSettings& rs, const NumericalSettings& st, Device device, double& estimate) {
-    const auto solve_one = [&](const rte::Stack& stack, int streams) {
+    // The probes of one stream count in one batch (one probe per core).
+    const auto solve_probes = [&](const std::vector<std::size_t>& which, int streams) {
         rte::ReflectionSettings at = rs;
         at.streams = streams;
-        return std::move(solve_stacks({&stack, 1}, at, device).front());
+        std::vector<rte::Stack> batch;
+        for (std::size_t k : which) batch.push_back(stacks[k]);
+        return solve_stacks(batch, at, device);
     };
     // The hardest samples: the most forward-peaked phase function and the highest albedo of any layer.
     const auto most = [](const SpectralOptics& o, auto&& value) {
@@ -96,17 +99,15 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     if (bright != peaked) probes.push_back(bright);
     int n = st.streams;
     // The larger solve of one round is the smaller one of the next: kept, not solved again.
-    std::vector<std::optional<rte::Reflection>> at_n(probes.size());
+    std::vector<rte::Reflection> at_n;
     for (;;) {
         const int next = std::min(st.max_streams, (3 * n + 1) / 2);
         if (next <= n) return n; // at the cap: keep the last estimate
         estimate = 0.0;
-        std::vector<std::optional<rte::Reflection>> at_next(probes.size());
-        for (std::size_t p = 0; p < probes.size(); ++p) {
-            if (!at_n[p]) at_n[p] = solve_one(stacks[probes[p]], n);
-            at_next[p] = solve_one(stacks[probes[p]], next);
-            estimate = std::max(estimate, disagreement(*at_n[p], *at_next[p]));
-        }
+        if (at_n.empty()) at_n = solve_probes(probes, n);
+        std::vector<rte::Reflection> at_next = solve_probes(probes, next);
+        for (std::size_t p = 0; p < probes.size(); ++p)
+            estimate = std::max(estimate, disagreement(at_n[p], at_next[p]));
         if (estimate <= st.tolerance) return n;
         log::info("streams ", n, " -> ", next, ": solutions differ by ", estimate, " (tolerance ", st.tolerance, ")");
         n = next;

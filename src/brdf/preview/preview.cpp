@@ -24,7 +24,7 @@ MirrorFunction lobe_albedo(const model::SolvedMaterial& m) {
         for (const model::WavelengthSolution& s : m.samples) {
             const rte::RoughInterface* r = s.reflection.rough_interface();
             if (!r) continue;
-            const double a = r->albedo_from_air(mu, 1e-4).reflected;
+            const double a = r->lobe_albedo(mu, 1e-4);
             for (int c = 0; c < 3; ++c) (*table)[k][c] += s.weight[c] * a;
         }
     });

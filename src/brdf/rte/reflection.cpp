@@ -476,7 +476,8 @@ std::vector<double> Reflection::albedo(std::span<const double> mu_in) const {
         const Matrix body = rough_body(0, k);
         for (int e = 0; e < ne; ++e) {
             for (int j = 0; j < rule; ++j) a[e] += g.w[j] * 2.0 * g.x[j] * body(j, rule + e);
-            a[e] += m_rough->albedo_from_air(mus[e], 1e-8).reflected;
+            // The lobe's closed-form albedo to 1 % of the kernels' tolerance: it is exact next to the body.
+            a[e] += m_rough->lobe_albedo(mus[e], std::clamp(0.01 * m_rough_tolerance, 1e-9, 1e-6));
         }
         return a;
     }

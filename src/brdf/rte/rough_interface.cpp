@@ -931,6 +931,12 @@ RoughInterface::Albedo RoughInterface::albedo_from_air(double mu, double toleran
     return {albedo_part(fc, Kind::ReflectAir, mu, tolerance), albedo_part(fc, Kind::TransmitDown, mu, tolerance)};
 }
 
+double RoughInterface::lobe_albedo(double mu, double tolerance) const {
+    check_cosine(mu, "rough interface albedo");
+    check_tolerance(tolerance, "rough interface albedo");
+    return albedo_part(Facets(*this), Kind::ReflectAir, mu, tolerance);
+}
+
 RoughInterface::Albedo RoughInterface::albedo_from_inside(double mu, double tolerance) const {
     check_cosine(mu, "rough interface albedo");
     check_tolerance(tolerance, "rough interface albedo");

@@ -81,6 +81,8 @@ public:
     /// levels agree to it; NumericalError if the finest level does not).
     Albedo albedo_from_air(double mu, double tolerance = 1e-10) const;
     Albedo albedo_from_inside(double mu, double tolerance = 1e-10) const;
+    /// albedo_from_air(mu, tolerance).reflected alone (the first-surface lobe's albedo), at half the cost.
+    double lobe_albedo(double mu, double tolerance = 1e-10) const;
 
 private:
     double m_n = 1.5;
