@@ -108,6 +108,37 @@ TEST(RenderSphere, MirrorAddsAHighlightOnlyWithAnInterface) {
     EXPECT_LT(by, 64) << "the glint of a light from above is on the upper half";
 }
 
+// render_material draws a rough top's first-surface lobe: a gloss finish gets a bright, small
+// highlight on the upper half (light from above), a matte one of the same paint a dim, wide one; a
+// surface without an interface none.
+TEST(RenderMaterial, RoughSurfaceDrawsItsLobe) {
+    const auto peak = [](const std::string& surface, int& at_y, int& bright_pixels) {
+        const model::SolvedMaterial m = solve_text(
+            R"({"name": "p", "medium": {"albedo": 0.9, "index": 1.5}, "surface": )" + surface +
+            R"(, "spectrum": "rgb", "accuracy": "draft"})");
+        preview::RenderOptions o = small(96);
+        o.light_theta_deg = 40.0;
+        o.light_phi_deg = 90.0;
+        const preview::Image image = preview::render_material(m, o);
+        double best = 0.0;
+        for (int y = 0; y < 96; ++y)
+            for (int x = 0; x < 96; ++x)
+                if (image.at(x, y)[1] > best) best = image.at(x, y)[1], at_y = y;
+        bright_pixels = 0;
+        for (int y = 0; y < 96; ++y)
+            for (int x = 0; x < 96; ++x) bright_pixels += image.at(x, y)[1] > 0.5 * best;
+        return best;
+    };
+    int y_gloss = 0, y_matte = 0, y_none = 0, n_gloss = 0, n_matte = 0, n_none = 0;
+    const double gloss = peak(R"({"roughness": 0.05})", y_gloss, n_gloss);
+    const double matte = peak(R"("matte")", y_matte, n_matte);
+    const double none = peak(R"("none")", y_none, n_none);
+    EXPECT_GT(gloss, 3.0 * matte);
+    EXPECT_GT(gloss, 3.0 * none);
+    EXPECT_LT(y_gloss, 48) << "the highlight of a light from above is on the upper half";
+    EXPECT_LT(n_gloss, n_matte) << "the gloss highlight is the smaller one";
+}
+
 TEST(RenderSphere, RejectsBadOptions) {
     preview::RenderOptions o = small();
     o.size = 2;

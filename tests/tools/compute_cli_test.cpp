@@ -67,6 +67,28 @@ TEST(ComputeCli, EvalReadsAngleTriplesFromStdin) {
     EXPECT_NE(bad.err.find("stdin line 1"), std::string::npos) << bad.err;
 }
 
+// eval of a spec goes through the tables' interpolant; --exact solves each direction off the
+// nodes. Both give the solved model: within the spec's tolerance (default, 1e-4) below 80 degrees,
+// off the grid's nodes and under an interface.
+TEST(ComputeCli, EvalInterpolantAgreesWithExact) {
+    TempDir dir;
+    write_file(dir / "hg.json", R"({"name": "hg", "medium": {"albedo": 0.95, "index": 1.5,
+        "phase": {"type": "henyey_greenstein", "g": 0.6}}, "surface": "smooth", "spectrum": "rgb"})");
+    const std::string lines = "12.3 47.9 33\n0.4 71.7 170\n63.2 28.8 95\n77.7 77.1 181\n";
+    const ProcessResult fast = run_tool("brdftool", {"eval", (dir / "hg.json").string(), "--device", "cpu"}, lines);
+    const ProcessResult exact =
+        run_tool("brdftool", {"eval", (dir / "hg.json").string(), "--exact", "--device", "cpu"}, lines);
+    ASSERT_EQ(fast.status, 0) << fast.err;
+    ASSERT_EQ(exact.status, 0) << exact.err;
+    const auto a = numbers(fast.out), b = numbers(exact.out);
+    ASSERT_EQ(a.size(), 12u) << fast.out;
+    ASSERT_EQ(b.size(), 12u) << exact.out;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+        EXPECT_GT(b[k], 0.0);
+        EXPECT_REL_NEAR(a[k], b[k], 1e-4) << "value " << k;
+    }
+}
+
 TEST(ComputeCli, AlbedoReportsTheMirrorOnItsOwnLine) {
     TempDir dir;
     write_file(dir / "w.json", R"({"name": "w", "medium": {"albedo": 1, "index": 1.5}, "surface": "smooth"})");
