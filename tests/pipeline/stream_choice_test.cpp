@@ -13,6 +13,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <string>
+#include <vector>
 
 namespace brdf::test {
 namespace {
@@ -80,6 +82,27 @@ TEST(StreamChoice, SettingsTightenWithTheTolerance) {
         EXPECT_GE(s.table_grid, previous.table_grid);
         previous = s;
     }
+}
+
+// The estimate a long material announces before the batch solve (solve_material's `note`): said
+// once, naming the material, a duration, the samples and the streams, when the expected time is
+// above the threshold; not at all below it (a quick material stays quiet).
+TEST(StreamChoice, LongSolveIsAnnouncedWithItsEstimate) {
+    const auto spec = spec_of(R"({"medium": {"albedo": 0.9, "phase": {"type": "henyey_greenstein", "g": 0.5}},
+                                  "spectrum": "rgb"})", "draft");
+    model::NumericalSettings st = model::settings_for(spec.accuracy.tolerance);
+    std::vector<std::string> notes;
+    const auto keep = [&notes](const std::string& text) { notes.push_back(text); };
+    model::solve_material(spec, model::Device::Cpu, st, keep);
+    EXPECT_TRUE(notes.empty()) << notes.front();
+    st.note_after_seconds = 0.0; // every material counts as long
+    const auto solved = model::solve_material(spec, model::Device::Cpu, st, keep);
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_EQ(notes[0].rfind("streams: about ", 0), 0u) << notes[0];
+    EXPECT_NE(notes[0].find(" to solve and tabulate (" + std::to_string(solved.samples.size()) + " samples at " +
+                            std::to_string(solved.settings.streams) + " streams)"),
+              std::string::npos)
+        << notes[0];
 }
 
 } // namespace

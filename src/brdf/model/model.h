@@ -9,6 +9,7 @@
 #include <brdf/model/optics.h>
 
 #include <array>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -31,6 +32,7 @@ struct NumericalSettings {
     int table_grid = 91; ///< zenith angles of the table's Fourier grid, 0..90 degrees
     rte::Method method = rte::Method::Fast;
     bool select_wavelengths = true; ///< solve only the wavelengths select_wavelengths() keeps
+    double note_after_seconds = 10.0; ///< solve_material's `note` for an expected time above this
 };
 NumericalSettings settings_for(double tolerance);
 
@@ -115,6 +117,11 @@ std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, co
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device);
-SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings);
+/// `note`, when given, is told what a user waiting should know before the long part: for a
+/// material whose solve and tables will take over settings.note_after_seconds, the estimate (from the stream check's own
+/// solves of the hardest samples, scaled to all samples and cores), e.g. "NAME: about 2 min 10 s
+/// to solve and tabulate (41 samples at 64 streams)". compute shows it as a line of its own.
+SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings,
+                              const std::function<void(const std::string&)>& note = {});
 
 } // namespace brdf::model

@@ -209,7 +209,8 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     if (tolerance > spec.accuracy.tolerance)
         log::info(spec.name, ": tables are solved to ", tolerance, ", not the requested ", spec.accuracy.tolerance,
                   " (finer than the tables can hold)");
-    model::SolvedMaterial solved = model::solve_material(spec, options.device, model::settings_for(tolerance));
+    model::SolvedMaterial solved = model::solve_material(spec, options.device, model::settings_for(tolerance),
+                                                         [&progress](const std::string& text) { progress.note(text); });
     progress.stage("table");
     auto t = std::chrono::steady_clock::now();
     const model::FillInputs fill = model::prepare_fill(solved);
