@@ -61,7 +61,7 @@ TEST(PipelineColour, AcesCgHoldsTheExampleYellowsWhereRec709ScalesThem) {
         EXPECT_LT(rec.gamut_scale, 1.0) << name;
         ASSERT_EQ(rec.warnings.size(), 1u) << name;
         const std::string& w = rec.warnings[0];
-        for (const std::string part : {std::string(name) + ": ", std::string("rec709 gamut"), std::string("chroma scaled by"),
+        for (const std::string& part : {std::string(name) + ": ", std::string("rec709 gamut"), std::string("chroma scaled by"),
                                        std::string("acescg"), std::string("spectral_exr")})
             EXPECT_NE(w.find(part), std::string::npos) << "'" << part << "' missing from: " << w;
         // The same physics: the solves differ only in their colour weights.

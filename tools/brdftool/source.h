@@ -1,9 +1,11 @@
 #pragma once
 // What eval, albedo and diff read: a material spec (solved on the spot, evaluated exactly at the
-// requested angles, or through the tables' interpolant: Source::use_interpolant), a pbrt-v3 Fourier BSDF (.bsdf; evaluated as pbrt-v3 does, formats::evaluate),
-// an RGL tensor BSDF (.rgl.bsdf; evaluated as Mitsuba 3's `measured` does, formats::RglEvaluator,
-// a spectral one weighted to RGB by the CIE 1931 / D65 weights of its wavelengths) or a table file (.binary, .exr, spectral .exr as RGB; evaluated by nearest-bin lookup). Files are
-// recognised by content (formats::detect_format).
+// requested angles, or through the tables' interpolant: Source::use_interpolant), a pbrt-v3
+// Fourier BSDF (.bsdf; evaluated as pbrt-v3 does, formats::evaluate), an RGL tensor BSDF
+// (.rgl.bsdf; evaluated as Mitsuba 3's `measured` does, formats::RglEvaluator, a spectral one
+// weighted to RGB by the CIE 1931 / D65 weights of its wavelengths) or a table file (.binary, .exr,
+// spectral .exr as RGB; evaluated by nearest-bin lookup). Files are recognised by content
+// (formats::detect_format).
 
 #include <brdf/material/colour_space.h>
 #include <brdf/model/model.h>

@@ -65,7 +65,8 @@ constexpr double probe_phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
 // first-surface lobe is left out: it is exact, the same in both, and its peak (10^4 1/sr for a
 // gloss finish at grazing) would set a scale that hides every difference of the body.
 double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
-    const std::vector<double> x = a.brdf_grid(probe_mus, probe_phis, false), y = b.brdf_grid(probe_mus, probe_phis, false);
+    const std::vector<double> x = a.brdf_grid(probe_mus, probe_phis, false);
+    const std::vector<double> y = b.brdf_grid(probe_mus, probe_phis, false);
     double largest = 0.0;
     for (double v : y) largest = std::max(largest, std::abs(v));
     double worst = 0.0;
@@ -493,7 +494,8 @@ std::vector<Rgb> weighted_at(const std::vector<WavelengthSolution>& samples, std
     std::vector<double> mus;
     for (double t : theta_i) mus.push_back(std::cos(t));
     std::vector<std::vector<double>> per_sample(samples.size());
-    parallel_for(static_cast<int>(samples.size()), available_cpus(), [&](int k) { per_sample[k] = of(samples[k], mus); });
+    parallel_for(static_cast<int>(samples.size()), available_cpus(),
+                 [&](int k) { per_sample[k] = of(samples[k], mus); });
     std::vector<Rgb> out(mus.size(), Rgb{0.0, 0.0, 0.0});
     for (std::size_t k = 0; k < samples.size(); ++k)
         for (std::size_t e = 0; e < mus.size(); ++e)

@@ -118,9 +118,10 @@ std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, co
 /// device (or the CPU reference).
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device);
 /// `note`, when given, is told what a user waiting should know before the long part: for a
-/// material whose solve and tables will take over settings.note_after_seconds, the estimate (from the stream check's own
-/// solves of the hardest samples, scaled to all samples and cores), e.g. "NAME: about 2 min 10 s
-/// to solve and tabulate (41 samples at 64 streams)". compute shows it as a line of its own.
+/// material whose solve and tables will take over settings.note_after_seconds, the estimate (from
+/// the stream check's own solves of the hardest samples, scaled to all samples and cores), e.g.
+/// "NAME: about 2 min 10 s to solve and tabulate (41 samples at 64 streams)". compute shows it as
+/// a line of its own.
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings,
                               const std::function<void(const std::string&)>& note = {});
 

@@ -25,7 +25,9 @@ namespace brdf::model {
 /// Orders per block of FillInputs::fourier (kernels/table_fill.cl uses the same).
 constexpr int fill_order_block = 8;
 /// M rounded up to whole blocks.
-constexpr int padded_orders(int orders) { return (orders + fill_order_block - 1) / fill_order_block * fill_order_block; }
+constexpr int padded_orders(int orders) {
+    return (orders + fill_order_block - 1) / fill_order_block * fill_order_block;
+}
 
 struct FillInputs {
     int grid = 0;   ///< E: zenith angles theta_a = a / (E - 1) * 90 degrees, a = 0 .. E - 1
