@@ -14,7 +14,10 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <limits>
 #include <random>
+#include <span>
+#include <vector>
 
 namespace brdf::test {
 namespace {
@@ -124,6 +127,54 @@ TEST(PipelineRough, BeckmannMediumTableCellsMatchTheModel) {
     expect_rough_table_matches_model(R"({"name": "b", "medium": {"albedo": [0.99, 0.8, 0.4], "index": 1.5,
         "phase": {"type": "henyey_greenstein", "g": 0.6}},
         "surface": {"roughness": 0.2, "distribution": "beckmann"}, "accuracy": "draft"})");
+}
+
+// A material's wavelengths under one rough top share the interface's kernels, interpolated in the
+// binder's index (rte/rough_family.h): the batch's BRDFs agree with each stack solved alone (no
+// family: a batch of one) well within the kernels' tolerance, over PMMA's range across the visible
+// (measured 1.9e-6 at tolerance 1e-4: mostly the quadratures' own differences from one index to
+// the next at that tolerance; the interpolation alone is below 1e-8, tests/rte/rough_family_test);
+// stacks of one index (an analytic material's channels) share them exactly.
+TEST(PipelineRough, SharedKernelsMatchEachWavelengthSolvedAlone) {
+    rte::ReflectionSettings rs;
+    rs.streams = 32;
+    rs.order_tolerance = 1e-5; // "default"
+    rs.control.tolerance = 1e-10;
+    std::vector<double> beta(200);
+    for (int l = 0; l < 200; ++l) beta[static_cast<std::size_t>(l)] = (2.0 * l + 1.0) * std::pow(0.6, l);
+    const auto stacks_of = [&](std::initializer_list<double> indices) {
+        std::vector<rte::Stack> out;
+        for (double n : indices) {
+            rte::Stack s;
+            s.top = rte::Top::Rough;
+            s.rough = rte::RoughSurface{0.03, rte::Microfacet::Ggx, rte::Masking::HeightCorrelated};
+            s.layers.push_back(rte::Layer{rte::Medium{0.99, beta}, std::numeric_limits<double>::infinity(), n});
+            out.push_back(s);
+        }
+        return out;
+    };
+    const double mus[] = {1.0, 0.7071, 0.2588, 0.0872, 0.0087};
+    const double phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
+    const auto worst_difference = [&](const std::vector<rte::Stack>& stacks) {
+        const std::vector<rte::Reflection> batch = model::solve_stacks(stacks, rs, model::Device::Cpu);
+        double worst = 0.0;
+        for (std::size_t k = 0; k < stacks.size(); ++k) {
+            const std::vector<rte::Reflection> alone =
+                model::solve_stacks(std::span<const rte::Stack>(&stacks[k], 1), rs, model::Device::Cpu);
+            const std::vector<double> x = batch[k].brdf_grid(mus, phis, false);
+            const std::vector<double> y = alone[0].brdf_grid(mus, phis, false);
+            double largest = 0.0;
+            for (double v : y) largest = std::max(largest, v);
+            for (std::size_t j = 0; j < x.size(); ++j) worst = std::max(worst, std::abs(x[j] - y[j]) / largest);
+        }
+        return worst;
+    };
+    const double dispersing = worst_difference(stacks_of({1.4847, 1.4861, 1.4880, 1.4903, 1.4931, 1.4966, 1.5009,
+                                                          1.5061, 1.5108}));
+    const double one_index = worst_difference(stacks_of({1.5, 1.5, 1.5}));
+    std::printf("batch against alone: dispersing %.2e, one index %.2e\n", dispersing, one_index);
+    EXPECT_LT(dispersing, 0.05 * rte::rough_kernel_tolerance(rs.order_tolerance));
+    EXPECT_LT(one_index, 1e-12);
 }
 
 TEST(Pipeline, WhiteFurnaceTableConservesEnergy) {

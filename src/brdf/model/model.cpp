@@ -14,6 +14,8 @@
 #include <numbers>
 #include <optional>
 #include <cmath>
+#include <limits>
+#include <memory>
 
 namespace brdf::model {
 namespace {
@@ -245,6 +247,36 @@ NumericalSettings settings_for(double tolerance) {
     return s;
 }
 
+namespace {
+
+// One rough kernel family (rte/rough_family.h) for a batch of stacks under the same rough top with
+// a single binder's streams, when interpolating in the index costs less than a quadrature per
+// stack; null otherwise.
+std::shared_ptr<const rte::RoughKernelFamily> shared_rough_kernels(const std::vector<rte::StackSetup>& setups,
+                                                                   const rte::ReflectionSettings& rs) {
+    if (setups.empty()) return nullptr;
+    const rte::Stack& first = setups.front().stack;
+    double n_lo = std::numeric_limits<double>::infinity(), n_hi = 0.0;
+    int orders = 1;
+    for (const rte::StackSetup& s : setups) {
+        const rte::RoughSurface& a = first.rough, &b = s.stack.rough;
+        if (s.stack.top != rte::Top::Rough || a.alpha != b.alpha || a.distribution != b.distribution ||
+            a.masking != b.masking)
+            return nullptr;
+        n_lo = std::min(n_lo, s.layers.front().index);
+        n_hi = std::max(n_hi, s.layers.front().index);
+        orders = std::max(orders, s.orders);
+    }
+    const double tolerance = rte::rough_kernel_tolerance(rs.order_tolerance);
+    const int nodes = rte::family_nodes(n_lo, n_hi, tolerance);
+    if (setups.size() <= static_cast<std::size_t>(nodes)) return nullptr;
+    log::debug("rough top: kernels of ", setups.size(), " stacks from ", nodes, " indices in [", n_lo, ", ", n_hi, "]");
+    return std::make_shared<const rte::RoughKernelFamily>(first.rough, rs.streams / 2, rs.streams - rs.streams / 2,
+                                                          n_lo, n_hi, nodes, orders, tolerance);
+}
+
+} // namespace
+
 std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, const rte::ReflectionSettings& rs,
                                           Device device, std::string* device_name) {
     // The semi-infinite layers' orders of every stack in one batch on the device; the finite layers
@@ -259,6 +291,7 @@ std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, co
         for (auto& p : rte::order_problems(setups.back())) problems.push_back(std::move(p));
     }
     first_problem.push_back(problems.size());
+    const std::shared_ptr<const rte::RoughKernelFamily> family = shared_rough_kernels(setups, rs);
     std::vector<rte::OrderSolution> solutions;
     if (device == Device::OpenCL) {
         auto ctx = cl::Context::shared(); // throws DeviceError naming the fault
@@ -274,7 +307,7 @@ std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, co
     parallel_for(static_cast<int>(setups.size()), available_cpus(), [&](int k) {
         std::vector<rte::OrderSolution> mine(solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k]),
                                              solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k + 1]));
-        made[k].emplace(std::move(setups[k]), std::move(mine));
+        made[k].emplace(std::move(setups[k]), std::move(mine), family);
     });
     std::vector<rte::Reflection> out;
     out.reserve(made.size());

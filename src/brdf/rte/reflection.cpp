@@ -29,24 +29,13 @@ double slab_factor(double tau, double a, double b) {
     return std::isinf(tau) ? 1.0 : -std::expm1(-tau * (1.0 / a + 1.0 / b));
 }
 
-// The rough top's kernels at `tolerance`, or, where the quadrature cannot reach it (a few
-// grazing air cosines at small alpha reach 2.7e-6 at the finest level for 1e-6), at the nearest
-// tenfold looser tolerance it reaches, with a warning; NumericalError beyond 1e-3.
-InterfaceKernels rough_kernels(const RoughInterface& rough, const StreamPieces& pieces, std::span<const double> air,
-                               int orders, double tolerance, bool internal_reflection) {
-    for (double tol = tolerance;; tol *= 10.0) {
-        try {
-            InterfaceKernels k = interface_kernels(rough, pieces, air, orders, tol, internal_reflection);
-            if (tol != tolerance)
-                log::warn("rough interface: kernels converged to ", tol, " instead of ", tolerance);
-            return k;
-        } catch (const NumericalError&) {
-            if (tol * 10.0 > 1e-3) throw;
-        }
-    }
-}
-
 } // namespace
+
+// The kernels' quadrature tolerance is the requested accuracy (10x the order tolerance; clamped:
+// below 1e-7 the per-stream kernels cost much more and the solution's own error dominates). On the
+// seed white in gloss at "default" (1e-4) the tables differ from those with kernels at 1e-5 by
+// 4.5e-6 at most, for a quarter less time.
+double rough_kernel_tolerance(double order_tolerance) { return std::clamp(10.0 * order_tolerance, 1e-7, 1e-4); }
 
 StackSetup setup_reflection(const Medium& medium, const Interface& interface, const ReflectionSettings& settings) {
     if (!(interface.n >= 1.0)) throw InputError(cat("interface: binder index must be >= 1 (got ", interface.n, ")"));
@@ -67,8 +56,9 @@ std::vector<OrderSolution> solve_orders_cpu(std::span<const OrderProblem> proble
     return out;
 }
 
-Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space)
-    : m_setup(std::move(setup)), m_half(std::move(half_space)) {
+Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space,
+                       std::shared_ptr<const RoughKernelFamily> family)
+    : m_setup(std::move(setup)), m_half(std::move(half_space)), m_family(std::move(family)) {
     const int orders = m_setup.orders;
     const std::size_t want = m_setup.semi_infinite() ? static_cast<std::size_t>(orders) : 0;
     if (m_half.size() != want)
@@ -158,12 +148,12 @@ void Reflection::setup_rough() {
     std::sort(edges.begin(), edges.end());
     edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
     m_rough_pieces = stream_pieces(top.streams, edges);
-    // The kernels' quadrature tolerance is the requested accuracy (10x the order tolerance; clamped:
-    // below 1e-7 the per-stream kernels cost much more and the solution's own error dominates). On
-    // the seed white in gloss at "default" (1e-4) the tables differ from those with kernels at 1e-5
-    // by 4.5e-6 at most, for a quarter less time.
-    m_rough_tolerance = std::clamp(10.0 * m_setup.order_tolerance, 1e-7, 1e-4);
-    const InterfaceKernels k = rough_kernels(*m_rough, m_rough_pieces, {}, m_setup.orders, m_rough_tolerance, true);
+    m_rough_tolerance = rough_kernel_tolerance(m_setup.order_tolerance);
+    // A family shared by the material's wavelengths serves only the stacks it was made for.
+    if (m_family &&
+        !m_family->applies(top.index, m_setup.stack.rough, m_rough_pieces, m_setup.orders, m_rough_tolerance))
+        m_family.reset();
+    const InterfaceKernels k = rough_kernels({}, m_setup.orders, true);
     const Streams& s = top.streams;
     const int n = s.size();
     for (int m = 0; m < m_setup.orders; ++m) {
@@ -183,6 +173,11 @@ void Reflection::setup_rough() {
         LuFactor(std::move(a)).solve(rq);
         m_rough_zq.push_back(std::move(rq));
     }
+}
+
+InterfaceKernels Reflection::rough_kernels(std::span<const double> air, int orders, bool internal_reflection) const {
+    if (m_family) return m_family->kernels(m_rough->index(), air, orders, internal_reflection);
+    return converged_interface_kernels(*m_rough, m_rough_pieces, air, orders, m_rough_tolerance, internal_reflection);
 }
 
 Matrix Reflection::rough_body(int m, const InterfaceKernels& kernels) const {
@@ -377,7 +372,7 @@ OrderGrid Reflection::order_grid(std::span<const double> mu_air) const {
         // TMS correction (exact phase function on one pair of refracted directions) does not
         // apply as it does under a smooth top (docs/physics.md, "Rough interface").
         const InterfaceKernels k =
-            rough_kernels(*m_rough, m_rough_pieces, mu, m_setup.orders, m_rough_tolerance, false);
+            rough_kernels(mu, m_setup.orders, false);
         for (int m = 0; m < m_setup.orders; ++m) grid.orders.push_back(rough_body(m, k));
         return grid;
     }
@@ -472,7 +467,7 @@ std::vector<double> Reflection::albedo(std::span<const double> mu_in) const {
         const Quadrature g = gauss_legendre(rule, 0.0, 1.0);
         std::vector<double> us = g.x;
         us.insert(us.end(), mus.begin(), mus.end());
-        const InterfaceKernels k = rough_kernels(*m_rough, m_rough_pieces, us, 1, m_rough_tolerance, false);
+        const InterfaceKernels k = rough_kernels(us, 1, false);
         const Matrix body = rough_body(0, k);
         for (int e = 0; e < ne; ++e) {
             for (int j = 0; j < rule; ++j) a[e] += g.w[j] * 2.0 * g.x[j] * body(j, rule + e);

@@ -16,6 +16,7 @@
 #include <brdf/rte/interface.h>
 #include <brdf/rte/order_solver.h>
 #include <brdf/rte/phase.h>
+#include <brdf/rte/rough_family.h>
 #include <brdf/rte/rough_interface.h>
 #include <brdf/rte/slab.h>
 #include <brdf/rte/stack.h>
@@ -33,6 +34,9 @@ struct ReflectionSettings {
     Method method = Method::Fast;
     SolveControl control;
 };
+
+/// A rough top's kernel quadrature tolerance for an order tolerance (Reflection::setup_rough).
+double rough_kernel_tolerance(double order_tolerance);
 
 /// A semi-infinite medium under a smooth interface of index interface.n (1: none), set up.
 StackSetup setup_reflection(const Medium& medium, const Interface& interface, const ReflectionSettings& settings);
@@ -59,7 +63,11 @@ class Reflection {
 public:
     /// `half_space`: the solutions of half_space_problems(setup), one per order (none for a film).
     /// The finite layers are solved here.
-    Reflection(StackSetup setup, std::vector<OrderSolution> half_space);
+    /// `family`: a rough top's kernels shared with the material's other wavelengths
+    /// (rough_family.h); used where it applies to this stack (its pieces and tolerance), else the
+    /// kernels are computed for this stack alone.
+    Reflection(StackSetup setup, std::vector<OrderSolution> half_space,
+               std::shared_ptr<const RoughKernelFamily> family = nullptr);
 
     const StackSetup& setup() const { return m_setup; }
     /// The Ambartsumian solutions of the semi-infinite layer (empty for a film).
@@ -127,6 +135,8 @@ private:
     Reflector external(int m, std::span<const double> mu_air) const;
     /// Rough top: the interface, its stream pieces and the body's Z Q per order (constructor).
     void setup_rough();
+    /// Rough top: the interface kernels for air cosines `air` (from the family where there is one).
+    InterfaceKernels rough_kernels(std::span<const double> air, int orders, bool internal_reflection) const;
     /// Rough top: the body's R^m between the air cosines of `kernels` (T_up Q (Z Q) T_down).
     Matrix rough_body(int m, const InterfaceKernels& kernels) const;
     /// The truncated single scattering on the direct paths that order_grid removes.
@@ -147,6 +157,7 @@ private:
     StreamPieces m_rough_pieces;
     std::vector<Matrix> m_rough_zq;
     double m_rough_tolerance = 1e-6;
+    std::shared_ptr<const RoughKernelFamily> m_family;
     /// Half-space, per order: the Nystrom half-node equation (M + u G) r = rhs(u), with
     /// G = I - (w/2) P+ W - w M X W P- W, reduced once for every direction u.
     std::vector<ShiftedPencil> m_nystrom;
