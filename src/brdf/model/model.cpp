@@ -259,10 +259,7 @@ std::shared_ptr<const rte::RoughKernelFamily> shared_rough_kernels(const std::ve
     double n_lo = std::numeric_limits<double>::infinity(), n_hi = 0.0;
     int orders = 1;
     for (const rte::StackSetup& s : setups) {
-        const rte::RoughSurface& a = first.rough, &b = s.stack.rough;
-        if (s.stack.top != rte::Top::Rough || a.alpha != b.alpha || a.distribution != b.distribution ||
-            a.masking != b.masking)
-            return nullptr;
+        if (s.stack.top != rte::Top::Rough || s.stack.rough != first.rough) return nullptr;
         n_lo = std::min(n_lo, s.layers.front().index);
         n_hi = std::max(n_hi, s.layers.front().index);
         orders = std::max(orders, s.orders);

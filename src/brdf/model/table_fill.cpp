@@ -122,8 +122,7 @@ void prepare_lobe(const SolvedMaterial& material, const std::vector<std::size_t>
         const rte::RoughInterface* r = s.reflection.rough_interface();
         if (!r) continue;
         if (!first) first = r;
-        const rte::RoughSurface& a = first->surface(), &b = r->surface();
-        if (a.alpha != b.alpha || a.distribution != b.distribution || a.masking != b.masking)
+        if (r->surface() != first->surface())
             throw InternalError("table fill: the samples' rough surfaces differ (one lobe per table expected)");
     }
     if (!first) return;

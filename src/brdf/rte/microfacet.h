@@ -16,6 +16,7 @@ struct RoughSurface {
     double alpha = 0.1;
     Microfacet distribution = Microfacet::Ggx;
     Masking masking = Masking::HeightCorrelated;
+    bool operator==(const RoughSurface&) const = default;
 };
 
 } // namespace brdf::rte

@@ -371,8 +371,7 @@ OrderGrid Reflection::order_grid(std::span<const double> mu_air) const {
         // phase function: the rough refraction spreads every direct path over the lobe, so the
         // TMS correction (exact phase function on one pair of refracted directions) does not
         // apply as it does under a smooth top (docs/physics.md, "Rough interface").
-        const InterfaceKernels k =
-            rough_kernels(mu, m_setup.orders, false);
+        const InterfaceKernels k = rough_kernels(mu, m_setup.orders, false);
         for (int m = 0; m < m_setup.orders; ++m) grid.orders.push_back(rough_body(m, k));
         return grid;
     }

@@ -96,9 +96,7 @@ StreamPieces RoughKernelFamily::pieces(double n) const {
 bool RoughKernelFamily::applies(double n, const RoughSurface& surface, const StreamPieces& p, int orders,
                                 double tolerance) const {
     if (!(n >= m_lo && n <= m_hi) || orders > m_orders || tolerance != m_tolerance) return false;
-    if (surface.alpha != m_surface.alpha || surface.distribution != m_surface.distribution ||
-        surface.masking != m_surface.masking)
-        return false;
+    if (surface != m_surface) return false;
     const StreamPieces mine = pieces(n);
     if (p.first != mine.first || p.edges.size() != mine.edges.size() || p.streams.mu.size() != mine.streams.mu.size())
         return false;
