@@ -86,23 +86,26 @@ void BM_FillSeedOpenCL(benchmark::State& state) {
 }
 BENCHMARK(BM_FillSeedOpenCL)->Unit(benchmark::kMillisecond)->Iterations(2);
 
-// The parts of the fill: the multiply scattered orders alone (no single-scattering samples) and
-// the single scattering alone (no orders), on the OpenCL device.
+// The parts of the fill: the multiply scattered orders alone (no single-scattering terms), the
+// single scattering alone (no orders) and neither (the cells' geometry, the launch and the
+// read-back), on the OpenCL device.
 void BM_FillSeedParts(benchmark::State& state) {
     const model::SolvedMaterial m = model::solve_material(seed(), model::Device::Cpu);
     model::FillInputs in = model::prepare_fill(m);
-    if (state.range(0) == 0) {
+    if (state.range(0) != 1) {
         in.samples = 0;
-        in.phase.clear(), in.refractive_index.clear(), in.transmission.clear(), in.tau.clear(), in.weight.clear();
-    } else {
+        in.phase.clear(), in.refractive_index.clear(), in.transmission.clear(), in.tau.clear();
+    }
+    if (state.range(0) != 0) {
         in.orders = 0;
         in.fourier.clear();
     }
     benchmark::DoNotOptimize(model::fill_table_opencl(in));
     for (auto _ : state) benchmark::DoNotOptimize(model::fill_table_opencl(in));
-    state.SetLabel(state.range(0) == 0 ? "orders only" : "single scattering only");
+    const char* labels[] = {"orders only", "single scattering only", "geometry only"};
+    state.SetLabel(labels[state.range(0)]);
 }
-BENCHMARK(BM_FillSeedParts)->Arg(0)->Arg(1)->ArgName("part")->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_FillSeedParts)->Arg(0)->Arg(1)->Arg(2)->ArgName("part")->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_PrepareFillSeed(benchmark::State& state) {
     const model::SolvedMaterial m = model::solve_material(seed(), model::Device::Cpu);

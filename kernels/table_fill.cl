@@ -1,5 +1,5 @@
 // The MERL table fill: one work-item per cell of the 90 x 90 x 180 half/difference table. The C++
-// reference is brdf::model::fill_table_cpu and fill_value (src/brdf/model/table_fill.cpp) with
+// reference is brdf::model::fill_table_cpu and cell_value (src/brdf/model/table_fill.cpp) with
 // the bin-centre geometry of formats/halfdiff.cpp (cell_indices, theta_h/theta_d/phi_d_centre,
 // to_directions) and the below-horizon test of formats::cell_below_horizon; this is the same
 // computation, formula for formula and in the same order of summation, in double precision without
@@ -18,39 +18,44 @@ static double clamp_ref(double v, double lo, double hi) { return v < lo ? lo : (
 // std::max(0.0, v): 0 for NaN too.
 static double max0_ref(double v) { return 0.0 < v ? v : 0.0; }
 
-// Catmull-Rom taps and weights along one zenith axis of the grid (table_fill.cpp: stencil).
-static void stencil(double theta, int grid, int idx[4], double w[4]) {
-    const double t = clamp_ref(theta / (0.5 * TF_PI), 0.0, 1.0) * (grid - 1);
-    const int i0 = min((int)t, grid - 2);
-    const double f = t - i0;
+// table_fill.cpp: catmull_rom, the weights of taps (-1, 0, 1, 2) at fraction f in [0, 1).
+static void catmull_rom(double f, double w[4]) {
     const double f2 = f * f, f3 = f2 * f;
     w[0] = 0.5 * (-f3 + 2.0 * f2 - f);
     w[1] = 0.5 * (3.0 * f3 - 5.0 * f2 + 2.0);
     w[2] = 0.5 * (-3.0 * f3 + 4.0 * f2 + f);
     w[3] = 0.5 * (f3 - f2);
+}
+
+// Catmull-Rom taps and weights along one zenith axis of the grid (table_fill.cpp: stencil).
+static void stencil(double theta, int grid, int idx[4], double w[4]) {
+    const double t = clamp_ref(theta / (0.5 * TF_PI), 0.0, 1.0) * (grid - 1);
+    const int i0 = min((int)t, grid - 2);
+    catmull_rom(t - i0, w);
     for (int k = 0; k < 4; ++k) idx[k] = clamp(i0 - 1 + k, 0, grid - 1);
 }
 
-static double lerp_table(__global const double* table, int points, double x) { // x in [0, 1]
-    const double t = clamp_ref(x, 0.0, 1.0) * (points - 1);
-    const int k = min((int)t, points - 2);
-    const double f = t - k;
-    return (1.0 - f) * table[k] + f * table[k + 1];
-}
-
-// table_fill.cpp: cubic_table (one ghost point beyond each end: x_k = (k - 1) / (points - 3)).
-static double cubic_table(__global const double* table, int points, double x) {
+// table_fill.cpp: cubic_taps (one ghost point beyond each end: x_k = (k - 1) / (points - 3)); returns k.
+static int cubic_taps(int points, double x, double w[4]) {
     const int intervals = points - 3;
     const double t = clamp_ref(x, 0.0, 1.0) * intervals;
     const int k = min((int)t, intervals - 1);
-    const double f = t - k;
-    const double f2 = f * f, f3 = f2 * f;
-    const double w0 = 0.5 * (-f3 + 2.0 * f2 - f);
-    const double w1 = 0.5 * (3.0 * f3 - 5.0 * f2 + 2.0);
-    const double w2 = 0.5 * (-3.0 * f3 + 4.0 * f2 + f);
-    const double w3 = 0.5 * (f3 - f2);
-    __global const double* v = table + k;
-    return w0 * v[0] + w1 * v[1] + w2 * v[2] + w3 * v[3];
+    catmull_rom(t - k, w);
+    return k;
+}
+
+// table_fill.cpp: cubic_table.
+static double cubic_table(__global const double* table, int points, double x) {
+    double w[4];
+    __global const double* v = table + cubic_taps(points, x, w);
+    return w[0] * v[0] + w[1] * v[1] + w[2] * v[2] + w[3] * v[3];
+}
+
+// table_fill.cpp: cubic_rgb_table, cubic_table for a table of RGB triples.
+static void cubic_rgb_table(__global const double* table, int points, double x, double out[3]) {
+    double w[4];
+    __global const double* v = table + 3 * (long)cubic_taps(points, x, w);
+    for (int c = 0; c < 3; ++c) out[c] = w[0] * v[c] + w[1] * v[3 + c] + w[2] * v[6 + c] + w[3] * v[9 + c];
 }
 
 // table_fill.cpp: smith_lambda (Walter et al. 2007, G1 of eqs. 34 and 27).
@@ -72,20 +77,19 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
     if (id >= p.cell_count) return;
     const long cell = id;
 
-    // formats::cell_indices and the bin centres.
+    // formats::cell_indices; the bin centres' sin and cos from the host's table.
     const int phi_k = (int)(cell % TF_PHI_D_BINS);
     const long rest = cell / TF_PHI_D_BINS;
     const int theta_dj = (int)(rest % TF_THETA_D_BINS);
     const int theta_hi = (int)(rest / TF_THETA_D_BINS);
-    const double u = (theta_hi + 0.5) / TF_THETA_H_BINS;
-    const double theta_h = u * u * (TF_PI / 2);
-    const double theta_d = (theta_dj + 0.5) / TF_THETA_D_BINS * (TF_PI / 2);
-    const double phi_d = (phi_k + 0.5) / TF_PHI_D_BINS * TF_PI;
+    __global const double* trig = data + p.geometry_offset;
+    const double sh = trig[2 * theta_hi], ch = trig[2 * theta_hi + 1];
+    const double sd = trig[2 * (TF_THETA_H_BINS + theta_dj)], cd = trig[2 * (TF_THETA_H_BINS + theta_dj) + 1];
+    const double sp = trig[2 * (TF_THETA_H_BINS + TF_THETA_D_BINS + phi_k)];
+    const double cp = trig[2 * (TF_THETA_H_BINS + TF_THETA_D_BINS + phi_k) + 1];
 
     // formats::to_directions: wi = Ry(theta_h) d, wo = Ry(theta_h) (-d.x, -d.y, d.z).
-    const double sd = sin(theta_d), cd = cos(theta_d);
-    const double dx = sd * cos(phi_d), dy = sd * sin(phi_d), dz = cd;
-    const double sh = sin(theta_h), ch = cos(theta_h);
+    const double dx = sd * cp, dy = sd * sp, dz = cd;
     const double wix = dx * ch + dz * sh, wiy = dy, wiz = -dx * sh + dz * ch;
     const double mdx = -dx, mdy = -dy;
     const double wox = mdx * ch + dz * sh, woy = mdy, woz = -mdx * sh + dz * ch;
@@ -96,20 +100,20 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         output[2 * TF_CELLS + cell] = TF_NO_DATA;
         return;
     }
-    const double theta_i = acos(clamp_ref(wiz, -1.0, 1.0));
-    const double theta_o = acos(clamp_ref(woz, -1.0, 1.0));
-    const double phi = atan2(woy, wox) - atan2(wiy, wix);
+    // table_fill.cpp: cell_directions.
+    const double mu_i = clamp_ref(wiz, -1.0, 1.0), mu_o = clamp_ref(woz, -1.0, 1.0);
+    const double theta_i = acos(mu_i), theta_o = acos(mu_o);
+    const double horizontal = sqrt((wix * wix + wiy * wiy) * (wox * wox + woy * woy));
+    const double c1 = horizontal > 0.0 ? clamp_ref((wix * wox + wiy * woy) / horizontal, -1.0, 1.0) : 1.0;
 
-    // fill_value(in, theta_i, theta_o, phi)
+    // table_fill.cpp: cell_value
     double out0 = 0.0, out1 = 0.0, out2 = 0.0;
-    const double mu_i = cos(theta_i), mu_o = cos(theta_o);
     if (mu_i > 0.0 && mu_o > 0.0) {
         const int e = p.grid;
         int so_idx[4], si_idx[4];
         double so_w[4], si_w[4];
         stencil(theta_o, e, so_idx, so_w);
         stencil(theta_i, e, si_idx, si_w);
-        const double c1 = cos(phi);
         double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
         __global const double* fourier = data + p.fourier_offset;
         const int mp = (p.orders + TF_ORDER_BLOCK - 1) / TF_ORDER_BLOCK * TF_ORDER_BLOCK;
@@ -131,25 +135,26 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
                 cm = next;
             }
         }
-        // Single scattering with the full phase function, per sample and layer (its own refraction).
+        // Single scattering with the full phase function, per term (its own refraction; table_fill.cpp:
+        // add_single_scattering), each term's phase table RGB.
         const double sin_i = sqrt(max0_ref(1.0 - mu_i * mu_i)), sin_o = sqrt(max0_ref(1.0 - mu_o * mu_o));
         const int kp = p.phase_points, kf = p.fresnel_points;
         __global const double* refractive_index = data + p.refractive_index_offset;
-        __global const double* weight = data + p.weight_offset;
         __global const double* tau = data + p.tau_offset;
         for (int s = 0; s < p.samples; ++s) {
             const double n = refractive_index[s], inv_n2 = 1.0 / (n * n);
             const double ui = sqrt(1.0 - sin_i * sin_i * inv_n2), uo = sqrt(1.0 - sin_o * sin_o * inv_n2);
             const double cos_scatter = clamp_ref(-uo * ui - sin_o * sin_i * inv_n2 * c1, -1.0, 1.0);
-            const double phase =
-                lerp_table(data + p.phase_offset + (long)s * kp, kp, sqrt(0.5 * (1.0 - cos_scatter)));
             __global const double* t = data + p.transmission_offset + (long)s * kf;
-            const double factor = lerp_table(t, kf, mu_o) * lerp_table(t, kf, mu_i);
+            const double factor = cubic_table(t, kf, mu_o) * cubic_table(t, kf, mu_i);
             const double slab = isinf(tau[s]) ? 1.0 : -expm1(-tau[s] * (1.0 / uo + 1.0 / ui));
-            const double v = factor * phase / (uo + ui) * slab;
-            out0 += weight[s * 3 + 0] * v;
-            out1 += weight[s * 3 + 1] * v;
-            out2 += weight[s * 3 + 2] * v;
+            const double v = factor / (uo + ui) * slab;
+            double phase[3];
+            const double u = sqrt(0.5 * (1.0 - cos_scatter)) - sqrt(0.5 * (1.0 + cos_scatter));
+            cubic_rgb_table(data + p.phase_offset + (long)s * kp * 3, kp, 0.5 * (u + 1.0), phase);
+            out0 += v * phase[0];
+            out1 += v * phase[1];
+            out2 += v * phase[2];
         }
         out0 = max0_ref(out0);
         out1 = max0_ref(out1);
@@ -159,7 +164,7 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         if (p.lobe != 0) {
             const double s_i = sqrt(max0_ref((1.0 - mu_i) * (1.0 + mu_i)));
             const double s_o = sqrt(max0_ref((1.0 - mu_o) * (1.0 + mu_o)));
-            const double cos_half = cos(0.5 * phi), omc = 2.0 * cos_half * cos_half;
+            const double omc = 1.0 + c1;
             const double sum = mu_i + mu_o;
             const double t2 = ((s_i - s_o) * (s_i - s_o) + 2.0 * s_i * s_o * omc) / (sum * sum);
             const double alpha = p.lobe_alpha;

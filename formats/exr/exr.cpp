@@ -166,7 +166,7 @@ void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
     TableOStream stream(out);
     try {
         // The file's offset table is written when `file` is destroyed: end its scope before commit.
-        Imf::OutputFile file(stream, header);
+        Imf::OutputFile file(stream, header, detail::exr_threads());
         Imf::FrameBuffer frame;
         for (int c = 0; c < 3; ++c)
             frame.insert(channel_names[c],

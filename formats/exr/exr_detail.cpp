@@ -6,7 +6,11 @@
 #include <ImfHeader.h>
 #include <ImfInputPart.h>
 #include <ImfMultiPartInputFile.h>
+#include <ImfThreading.h>
 #include <ImfVersion.h>
+
+#include <algorithm>
+#include <thread>
 
 #include <string_view>
 
@@ -80,6 +84,15 @@ void read_planes(const InputFile& file, const std::vector<PlaneTarget>& planes) 
         if (stream.io_error()) throw IoError(*stream.io_error());
         throw FormatError(cat(display(file.path()), ": OpenEXR: ", e.what()));
     }
+}
+
+int exr_threads() {
+    static const int threads = [] {
+        const int n = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+        Imf::setGlobalThreadCount(n);
+        return n;
+    }();
+    return threads;
 }
 
 } // namespace brdf::formats::detail

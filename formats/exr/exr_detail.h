@@ -184,4 +184,8 @@ struct PlaneTarget {
 /// C++ API; IoError or FormatError naming the path.
 void read_planes(const InputFile& file, const std::vector<PlaneTarget>& planes);
 
+/// The number of threads OpenEXR (de)compresses line blocks on: one per core, set once before the
+/// first file is opened (ZIP compression of a table's 1.46 million cells is most of its write).
+int exr_threads();
+
 } // namespace brdf::formats::detail

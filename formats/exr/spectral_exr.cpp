@@ -266,7 +266,7 @@ void write_spectral_exr(const std::filesystem::path& path, const SpectralTable& 
     detail::AtomicFile out(path);
     detail::TableOStream stream(out);
     try {
-        Imf::OutputFile file(stream, header);
+        Imf::OutputFile file(stream, header, detail::exr_threads());
         // One theta_h index (90 rows) at a time, so that writing needs no second copy of the
         // planes: 0 below the horizon and in no-data cells.
         constexpr int rows = theta_d_bins;

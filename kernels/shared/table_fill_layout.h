@@ -20,10 +20,10 @@
 
 typedef struct FillParams {
     brdf_i64 fourier_offset;      ///< FillInputs::fourier, grid * grid * padded orders * 3
-    brdf_i64 phase_offset;        ///< FillInputs::phase, samples * phase_points
+    brdf_i64 phase_offset;        ///< FillInputs::phase, samples * phase_points * 3
     brdf_i64 refractive_index_offset; ///< FillInputs::refractive_index, samples
     brdf_i64 transmission_offset; ///< FillInputs::transmission, samples * fresnel_points
-    brdf_i64 weight_offset;       ///< FillInputs::weight, samples * 3
+    brdf_i64 geometry_offset;     ///< sin and cos of the bin centres: theta_h (90 pairs), theta_d (90), phi_d (180)
     brdf_i64 tau_offset;          ///< FillInputs::tau, samples
     brdf_i64 cell_count;          ///< cells (global ids past it do nothing)
     brdf_i32 grid;                ///< E

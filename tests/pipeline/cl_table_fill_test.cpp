@@ -1,8 +1,9 @@
 // The OpenCL table fill (kernels/table_fill.cl through model/cl_table_fill.h) against its C++
-// reference fill_table_cpu, every one of the 1,458,000 cells: an analytic medium, a small particulate
-// material, the same paint under rough surfaces (gloss and matte GGX, separable masking, Beckmann on
-// a stack: the first-surface lobe per cell), and empty inputs (geometry only). Below-horizon cells
-// must be no_data exactly where formats::cell_below_horizon says so.
+// reference fill_table_cpu, every one of the 1,458,000 cells: an analytic medium, a small
+// particulate material (in RGB, and across the visible, where the wavelengths share
+// single-scattering terms), the same paint under rough surfaces (gloss and matte GGX, separable
+// masking, Beckmann on a stack: the first-surface lobe per cell), and empty inputs (geometry only).
+// Below-horizon cells must be no_data exactly where formats::cell_below_horizon says so.
 
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
@@ -96,6 +97,18 @@ TEST_F(ClTableFill, ParticulateMaterialMatchesReference) {
     compare_tables(model::fill_table_opencl(in), model::fill_table_cpu(in, 2));
 }
 
+// Across the visible the wavelengths share a few single-scattering terms (interpolated in the
+// binder index): the kernel reads them as the C++ fill does.
+TEST_F(ClTableFill, SpectralPaintWithSharedSingleScatteringMatchesReference) {
+    std::string text(white_paint);
+    text.replace(text.find("\"rgb\""), 5, "\"visible\"");
+    const model::SolvedMaterial m = model::solve_material(spec_from(text), model::Device::Cpu);
+    const model::FillInputs in = model::prepare_fill(m);
+    ASSERT_GT(in.samples, 0);
+    ASSERT_LT(static_cast<std::size_t>(in.samples), m.samples.size());
+    compare_tables(model::fill_table_opencl(in), model::fill_table_cpu(in, 2));
+}
+
 std::string rough(const char* spec, const char* surface) {
     std::string text(spec);
     return text.insert(text.rfind('}'), cat(", \"surface\": ", surface));
@@ -155,14 +168,13 @@ TEST(ClTableFillInputs, InconsistentInputsAreRefused) {
     EXPECT_THROW(model::fill_table_opencl(in), InputError);
     in.fourier.push_back(0.0);
     in.samples = 1;
-    in.phase_points = 4;
-    in.phase.assign(4, 0.0);
-    in.fresnel_points = 2;
-    in.transmission.assign(2, 1.0);
+    in.phase_points = 5;
+    in.phase.assign(5 * 3 - 1, 0.0); // RGB: 15 expected
+    in.fresnel_points = 5;
+    in.transmission.assign(5, 1.0);
     in.refractive_index.assign(1, 1.0);
-    in.weight.assign(2, 1.0); // 3 expected
     EXPECT_THROW(model::fill_table_opencl(in), InputError);
-    in.weight.push_back(1.0);
+    in.phase.push_back(0.0);
     in.tau.assign(1, 1.0);
     in.lobe = model::FillInputs::Lobe::Ggx;
     in.lobe_alpha = 0.1;

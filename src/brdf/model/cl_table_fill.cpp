@@ -15,6 +15,7 @@
 #include <shared/table_fill_layout.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -25,7 +26,7 @@ static_assert(offsetof(FillParams, fourier_offset) == 0);
 static_assert(offsetof(FillParams, phase_offset) == 8);
 static_assert(offsetof(FillParams, refractive_index_offset) == 16);
 static_assert(offsetof(FillParams, transmission_offset) == 24);
-static_assert(offsetof(FillParams, weight_offset) == 32);
+static_assert(offsetof(FillParams, geometry_offset) == 32);
 static_assert(offsetof(FillParams, tau_offset) == 40);
 static_assert(offsetof(FillParams, cell_count) == 48);
 static_assert(offsetof(FillParams, grid) == 56);
@@ -59,16 +60,15 @@ void validate(const FillInputs& in) {
     if (in.orders < 0 || in.samples < 0) throw InputError("OpenCL table fill: negative orders or samples");
     if (in.orders > 0 && in.grid < 2)
         throw InputError(cat("OpenCL table fill: grid of ", in.grid, " zenith angles (at least 2)"));
-    if (in.samples > 0 && (in.phase_points < 2 || in.fresnel_points < 2))
+    if (in.samples > 0 && (in.phase_points < 5 || in.fresnel_points < 5))
         throw InputError(cat("OpenCL table fill: phase table of ", in.phase_points, " and transmission table of ",
-                             in.fresnel_points, " points (at least 2 each)"));
+                             in.fresnel_points, " points (at least 5 each)"));
     const auto e = static_cast<std::size_t>(std::max(0, in.grid));
     const auto s = static_cast<std::size_t>(in.samples);
     require_size(in.fourier.size(), static_cast<std::size_t>(padded_orders(in.orders)) * 3 * e * e, "fourier");
-    require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)), "phase");
+    require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)) * 3, "phase");
     require_size(in.refractive_index.size(), s, "refractive_index");
     require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");
-    require_size(in.weight.size(), s * 3, "weight");
     require_size(in.tau.size(), s, "tau");
     if (in.lobe != FillInputs::Lobe::None) {
         if (in.lobe != FillInputs::Lobe::Ggx && in.lobe != FillInputs::Lobe::Beckmann)
@@ -81,6 +81,20 @@ void validate(const FillInputs& in) {
     }
 }
 
+// sin and cos of every bin centre, the same for every table: the kernel builds the cells'
+// directions from these as formats::to_directions does (the same products, so the same horizon).
+std::vector<double> bin_centre_trigonometry() {
+    std::vector<double> out;
+    const auto add = [&out](double angle) {
+        out.push_back(std::sin(angle));
+        out.push_back(std::cos(angle));
+    };
+    for (int i = 0; i < formats::theta_h_bins; ++i) add(formats::theta_h_centre(i));
+    for (int j = 0; j < formats::theta_d_bins; ++j) add(formats::theta_d_centre(j));
+    for (int k = 0; k < formats::phi_d_bins; ++k) add(formats::phi_d_centre(k));
+    return out;
+}
+
 } // namespace
 
 formats::BrdfTable fill_table_opencl(const FillInputs& in) {
@@ -88,7 +102,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     FillParams params{};
     std::vector<double> data;
     data.reserve(in.fourier.size() + in.phase.size() + in.refractive_index.size() + in.transmission.size() +
-                 in.weight.size() + in.tau.size() + in.lobe_fresnel.size() + 1);
+                 in.tau.size() + in.lobe_fresnel.size() + 2 * (formats::theta_h_bins + formats::theta_d_bins + formats::phi_d_bins));
     auto append = [&data](const std::vector<double>& v) {
         const auto offset = static_cast<brdf_i64>(data.size());
         data.insert(data.end(), v.begin(), v.end());
@@ -98,7 +112,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     params.phase_offset = append(in.phase);
     params.refractive_index_offset = append(in.refractive_index);
     params.transmission_offset = append(in.transmission);
-    params.weight_offset = append(in.weight);
+    params.geometry_offset = append(bin_centre_trigonometry());
     params.tau_offset = append(in.tau);
     params.lobe_fresnel_offset = append(in.lobe_fresnel);
     if (data.empty()) data.push_back(0.0);

@@ -14,10 +14,21 @@
 namespace brdf::model {
 namespace {
 
-constexpr int phase_table_points = 8192;
-// A(mu) / (n sqrt(pi)) is smooth (linear near grazing for a half-space): 2049 points interpolate it to
-// ~1e-7.
-constexpr int fresnel_table_points = 2049;
+// The phase function against u = sin(Theta / 2) - cos(Theta / 2) = sqrt(2) sin(Theta / 2 - pi / 4),
+// in [-1, 1]: two square roots of cos(Theta) per cell, and du / dTheta lies in [0.5, 0.71], so the
+// table resolves the backward peak and the glory as well as the forward peak (reflection under a
+// binder of index 1.5 sees only Theta > 96 degrees). A table uniform in sin(Theta / 2) left the
+// last 2 degrees before backscattering to one interval and erred by ~1e-5 there for the seed's
+// rutile (Legendre order ~100). Catmull-Rom on 8192 intervals, one ghost point beyond each end
+// (exact: p is even about Theta = 0 and pi), errs by ~1e-9, and its C1 pieces keep the term smooth
+// in the binder index, which share_single_scattering interpolates in.
+constexpr int phase_table_intervals = 8192;
+constexpr int phase_table_points = phase_table_intervals + 3;
+// A(mu) / (n sqrt(pi)) is smooth (linear near grazing for a half-space): Catmull-Rom on 2048
+// intervals (ghost points extrapolated) interpolates it to ~1e-9 down to 86 degrees, where the
+// linear table of before erred by ~1e-6.
+constexpr int fresnel_table_intervals = 2048;
+constexpr int fresnel_table_points = fresnel_table_intervals + 3;
 // The facet Fresnel factor F(cos theta_d; n) is analytic on [0, 1] (n > 1): Catmull-Rom on 2048
 // intervals interpolates it to ~1e-10 (O(h^3)), well inside the lobe's 1e-6. One ghost point beyond
 // each end keeps the end intervals cubic too.
@@ -47,23 +58,64 @@ Stencil stencil(double theta, int grid) {
     return s;
 }
 
-double lerp_table(const double* table, int points, double x) { // x in [0, 1]
-    const double t = std::clamp(x, 0.0, 1.0) * (points - 1);
-    const int k = std::min(static_cast<int>(t), points - 2);
-    const double f = t - k;
-    return (1.0 - f) * table[k] + f * table[k + 1];
-}
-
 // Catmull-Rom through a table with one ghost point beyond each end: table[k] holds the value at
-// x_k = (k - 1) / (points - 3), k = 0 .. points - 1; x in [0, 1].
-double cubic_table(const double* table, int points, double x) {
+// x_k = (k - 1) / (points - 3), k = 0 .. points - 1; x in [0, 1]. The taps x_{k-1} .. x_{k+2} of
+// x's interval are entries k .. k + 3.
+struct CubicTaps {
+    int k;
+    double w[4];
+};
+
+CubicTaps cubic_taps(int points, double x) {
     const int intervals = points - 3;
     const double t = std::clamp(x, 0.0, 1.0) * intervals;
-    const int k = std::min(static_cast<int>(t), intervals - 1);
-    double w[4];
-    catmull_rom(t - k, w);
-    const double* v = table + k; // taps x_{k-1} .. x_{k+2} are table[k] .. table[k + 3]
-    return w[0] * v[0] + w[1] * v[1] + w[2] * v[2] + w[3] * v[3];
+    CubicTaps taps;
+    taps.k = std::min(static_cast<int>(t), intervals - 1);
+    catmull_rom(t - taps.k, taps.w);
+    return taps;
+}
+
+double cubic_table(const double* table, int points, double x) {
+    const CubicTaps c = cubic_taps(points, x);
+    const double* v = table + c.k;
+    return c.w[0] * v[0] + c.w[1] * v[1] + c.w[2] * v[2] + c.w[3] * v[3];
+}
+
+// cubic_table for a table of RGB triples.
+Rgb cubic_rgb_table(const double* table, int points, double x) {
+    const CubicTaps c = cubic_taps(points, x);
+    const double* v = table + 3 * static_cast<std::size_t>(c.k);
+    Rgb out{};
+    for (int ch = 0; ch < 3; ++ch) out[ch] = c.w[0] * v[ch] + c.w[1] * v[3 + ch] + c.w[2] * v[6 + ch] + c.w[3] * v[9 + ch];
+    return out;
+}
+
+// Single scattering with the full phase function, per term (its own refraction), added to `out`.
+// Snell: sin(theta inside) = sin(theta in air) / n, so only the cosines inside need a square root.
+void add_single_scattering(const FillInputs& in, double mu_i, double mu_o, double cos_phi, Rgb& out) {
+    const double sin_i = std::sqrt(std::max(0.0, 1.0 - mu_i * mu_i)), sin_o = std::sqrt(std::max(0.0, 1.0 - mu_o * mu_o));
+    const int kp = in.phase_points, kf = in.fresnel_points;
+    for (int s = 0; s < in.samples; ++s) {
+        const double n = in.refractive_index[s], inv_n2 = 1.0 / (n * n);
+        const double ui = std::sqrt(1.0 - sin_i * sin_i * inv_n2), uo = std::sqrt(1.0 - sin_o * sin_o * inv_n2);
+        const double cos_scatter = std::clamp(-uo * ui - sin_o * sin_i * inv_n2 * cos_phi, -1.0, 1.0);
+        // tab(mu) = A(mu) / (n sqrt(pi)): the term's factor A(mu_o) A(mu_i) / (n^2 pi).
+        const double* t = &in.transmission[static_cast<std::size_t>(s) * kf];
+        const double factor = cubic_table(t, kf, mu_o) * cubic_table(t, kf, mu_i);
+        const double slab = std::isinf(in.tau[s]) ? 1.0 : -std::expm1(-in.tau[s] * (1.0 / uo + 1.0 / ui));
+        const double v = factor / (uo + ui) * slab;
+        const double u = std::sqrt(0.5 * (1.0 - cos_scatter)) - std::sqrt(0.5 * (1.0 + cos_scatter));
+        const Rgb phase = cubic_rgb_table(&in.phase[static_cast<std::size_t>(s) * kp * 3], kp, 0.5 * (u + 1.0));
+        for (int c = 0; c < 3; ++c) out[c] += v * phase[c];
+    }
+}
+
+// The ghost points of a table for cubic_table, extrapolated quadratically from the first and last
+// three points inside [0, 1].
+void extrapolate_ghosts(std::vector<double>& table) {
+    const std::size_t n = table.size();
+    table[0] = 3.0 * table[1] - 3.0 * table[2] + table[3];
+    table[n - 1] = 3.0 * table[n - 2] - 3.0 * table[n - 3] + table[n - 4];
 }
 
 // Smith Lambda from a direction's cosine and sine (rte/rough_interface.cpp, Facets::lambda: Walter
@@ -80,7 +132,7 @@ double smith_lambda(FillInputs::Lobe lobe, double alpha, double mu, double s) {
 }
 
 // The first-surface lobe without its Fresnel factor, D(h) G(wi, wo) / (4 mu_i mu_o), and the cosine
-// wi.h it needs, for the graphics azimuth phi (the geometry of rte/rough_interface.cpp: with
+// wi.h it needs, for the graphics azimuth phi given by its cosine (the geometry of rte/rough_interface.cpp: with
 // omc = 1 + cos(phi), tan^2(theta_h) = ((s_i - s_o)^2 + 2 s_i s_o omc) / (mu_i + mu_o)^2 and
 // wi.wo = mu_i mu_o - s_i s_o + s_i s_o omc).
 struct LobeGeometry {
@@ -88,10 +140,10 @@ struct LobeGeometry {
     double value = 0.0;
 };
 
-LobeGeometry lobe_geometry(const FillInputs& in, double mu_i, double mu_o, double phi) {
+LobeGeometry lobe_geometry(const FillInputs& in, double mu_i, double mu_o, double cos_phi) {
     const double s_i = std::sqrt(std::max(0.0, (1.0 - mu_i) * (1.0 + mu_i)));
     const double s_o = std::sqrt(std::max(0.0, (1.0 - mu_o) * (1.0 + mu_o)));
-    const double cos_half = std::cos(0.5 * phi), omc = 2.0 * cos_half * cos_half;
+    const double omc = 1.0 + cos_phi;
     const double sum = mu_i + mu_o;
     const double t2 = ((s_i - s_o) * (s_i - s_o) + 2.0 * s_i * s_o * omc) / (sum * sum);
     const double a2 = in.lobe_alpha * in.lobe_alpha, sec2 = 1.0 + t2;
@@ -163,6 +215,132 @@ std::vector<rte::OrderGrid> order_grids(const SolvedMaterial& material) {
     return grids;
 }
 
+// One single-scattering term before the wavelengths share them: the layer's refraction, its path
+// factor and its phase table without colour, and the colour weight.
+struct SingleScatteringTerm {
+    double index = 1.0;
+    double tau = 0.0;
+    bool top_layer = false;
+    Rgb weight{};
+    std::vector<double> phase;        // phase_table_points values
+    std::vector<double> transmission; // fresnel_table_points values
+};
+
+// Appends a term with the refraction and path factor of `geometry` and the phase table
+// sum_k coefficient_k weight_k phase_k over `sources` (RGB).
+void append_term(FillInputs& in, const SingleScatteringTerm& geometry, const std::vector<const SingleScatteringTerm*>& sources,
+                 const std::vector<Rgb>& weights) {
+    in.phase_points = phase_table_points;
+    in.fresnel_points = fresnel_table_points;
+    const std::size_t base = in.phase.size();
+    in.phase.resize(base + 3 * static_cast<std::size_t>(phase_table_points), 0.0);
+    for (std::size_t k = 0; k < sources.size(); ++k)
+        for (int p = 0; p < phase_table_points; ++p)
+            for (int c = 0; c < 3; ++c) in.phase[base + 3 * static_cast<std::size_t>(p) + c] += weights[k][c] * sources[k]->phase[p];
+    in.refractive_index.push_back(geometry.index);
+    in.tau.push_back(geometry.tau);
+    in.transmission.insert(in.transmission.end(), geometry.transmission.begin(), geometry.transmission.end());
+    ++in.samples;
+}
+
+// Moves the single-scattering terms of `from` into `to`.
+void take_terms(FillInputs& from, FillInputs& to) {
+    to.samples = from.samples;
+    to.phase_points = from.phase_points;
+    to.fresnel_points = from.fresnel_points;
+    to.phase = std::move(from.phase);
+    to.refractive_index = std::move(from.refractive_index);
+    to.transmission = std::move(from.transmission);
+    to.tau = std::move(from.tau);
+}
+
+// Largest error of `shared` against `exact` over a probe set of directions (0 to 89.7 degrees in
+// both zenith angles, 0 to 180 in azimuth), per channel relative to `scale`, the same sum with
+// absolute colour weights (the size of what the terms add up to, whatever their signs).
+double probe_error(const FillInputs& exact, const FillInputs& scale, const FillInputs& shared) {
+    constexpr double degrees[] = {0.0, 20.0, 40.0, 55.0, 65.0, 75.0, 82.0, 86.0, 88.5, 89.7};
+    double worst = 0.0;
+    for (double ti : degrees)
+        for (double to : degrees)
+            for (int k = 0; k <= 4; ++k) {
+                const double mu_i = std::cos(ti * std::numbers::pi / 180.0), mu_o = std::cos(to * std::numbers::pi / 180.0);
+                const double cos_phi = std::cos(k * std::numbers::pi / 4.0);
+                Rgb e{}, a{}, s{};
+                add_single_scattering(exact, mu_i, mu_o, cos_phi, e);
+                add_single_scattering(scale, mu_i, mu_o, cos_phi, s);
+                add_single_scattering(shared, mu_i, mu_o, cos_phi, a);
+                for (int c = 0; c < 3; ++c)
+                    if (s[c] > 0.0) worst = std::max(worst, std::abs(a[c] - e[c]) / s[c]);
+            }
+    return worst;
+}
+
+// The single-scattering terms of the fill, shared by the wavelengths where that is exact to 1 % of
+// the tolerance. For a half-space each wavelength's term is f_s(n_s), f_s(n) = t(mu_o; n) t(mu_i; n)
+// P_s(Theta(n)) / (u_o(n) + u_i(n)): it depends on the wavelength through the phase table and,
+// smoothly, through the binder index n_s (the path factor of the top layer is the Fresnel
+// transmission at n). Lagrange interpolation in n on nodes n_j of the material's index range, each
+// a sample's own index, gives sum_s w_s f_s(n_s) ~= sum_j t t / (u_o + u_i) at n_j times
+// Q_j(Theta(n_j)), Q_j = sum_s w_s L_j(n_s) P_s: J terms per cell instead of S (PMMA across the
+// visible: 5 instead of 41). Nodes near the Chebyshev-Lobatto points, J = 3, 5, 7, ... until a
+// probe set agrees; a material whose indices all agree gets one exact term; anything else (films,
+// several layers) keeps one term per sample.
+void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, double tolerance, FillInputs& in) {
+    const std::size_t count = terms.size();
+    FillInputs exact;
+    for (const SingleScatteringTerm& t : terms) append_term(exact, t, {&t}, {t.weight});
+    const bool half_space = std::all_of(terms.begin(), terms.end(),
+                                        [](const SingleScatteringTerm& t) { return t.top_layer && std::isinf(t.tau); });
+    const auto keep_per_sample = [&] { take_terms(exact, in); };
+    if (count < 2 || !half_space) return keep_per_sample();
+    std::vector<const SingleScatteringTerm*> all;
+    for (const SingleScatteringTerm& t : terms) all.push_back(&t);
+    const auto [lo_it, hi_it] = std::minmax_element(terms.begin(), terms.end(), [](const auto& a, const auto& b) {
+        return a.index < b.index;
+    });
+    const double lo = lo_it->index, hi = hi_it->index;
+    if (hi - lo <= 1e-12 * hi) { // one refraction for all: one term, exact
+        std::vector<Rgb> weights;
+        for (const SingleScatteringTerm& t : terms) weights.push_back(t.weight);
+        append_term(in, *lo_it, all, weights);
+        return;
+    }
+    FillInputs scale;
+    for (const SingleScatteringTerm& t : terms)
+        append_term(scale, t, {&t}, {Rgb{std::abs(t.weight[0]), std::abs(t.weight[1]), std::abs(t.weight[2])}});
+    for (std::size_t nodes = 3; 2 * nodes <= count; nodes += 2) {
+        std::vector<std::size_t> node; // the sample nearest each Chebyshev-Lobatto point
+        for (std::size_t j = 0; j < nodes; ++j) {
+            const double x = 0.5 * (lo + hi) - 0.5 * (hi - lo) * std::cos(std::numbers::pi * j / (nodes - 1));
+            std::size_t best = 0;
+            for (std::size_t s = 1; s < count; ++s)
+                if (std::abs(terms[s].index - x) < std::abs(terms[best].index - x)) best = s;
+            node.push_back(best);
+        }
+        bool distinct = true;
+        for (std::size_t j = 1; j < nodes; ++j) distinct = distinct && terms[node[j]].index > terms[node[j - 1]].index;
+        if (!distinct) break;
+        FillInputs shared;
+        for (std::size_t j = 0; j < nodes; ++j) {
+            std::vector<Rgb> weights;
+            for (const SingleScatteringTerm& t : terms) {
+                double l = 1.0; // L_j(n_s)
+                for (std::size_t k = 0; k < nodes; ++k)
+                    if (k != j) l *= (t.index - terms[node[k]].index) / (terms[node[j]].index - terms[node[k]].index);
+                weights.push_back(Rgb{l * t.weight[0], l * t.weight[1], l * t.weight[2]});
+            }
+            append_term(shared, terms[node[j]], all, weights);
+        }
+        const double error = probe_error(exact, scale, shared);
+        if (error <= 0.01 * tolerance) {
+            log::debug("table fill: single scattering of ", count, " samples on ", nodes, " index nodes (",
+                      error, " relative on the probe set)");
+            return take_terms(shared, in);
+        }
+    }
+    keep_per_sample();
+}
+
 // The fill inputs of the samples `which` with colour weights `weights` (one per entry of `which`).
 FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<rte::OrderGrid>& grids,
                          const std::vector<std::size_t>& which, const std::vector<Rgb>& weights) {
@@ -172,38 +350,45 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<rte::
     for (std::size_t k : which) in.orders = std::max(in.orders, material.samples[k].reflection.orders());
     const int mp = padded_orders(in.orders);
     in.fourier.assign(static_cast<std::size_t>(mp) * 3 * e * e, 0.0);
-    in.phase_points = phase_table_points;
-    in.fresnel_points = fresnel_table_points;
-    const double inv_sqrt_pi = 1.0 / std::sqrt(std::numbers::pi);
-    for (std::size_t j = 0; j < which.size(); ++j) {
-        const rte::Reflection& r = material.samples[which[j]].reflection;
-        const rte::OrderGrid& g = grids[which[j]];
-        const Rgb& weight = weights[j];
-        for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
-            const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::numbers::inv_pi;
-            for (int o = 0; o < e; ++o)
+    // The orders in colour: one zenith row of the grid per task.
+    parallel_for(e, available_cpus(), [&](int o) {
+        for (std::size_t j = 0; j < which.size(); ++j) {
+            const rte::OrderGrid& g = grids[which[j]];
+            for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
+                const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::numbers::inv_pi;
                 for (int i = 0; i < e; ++i) {
                     double* dst = &in.fourier[((static_cast<std::size_t>(o) * e + i) * mp + m) * 3];
                     const double v = factor * g.orders[m](o, i);
-                    for (int c = 0; c < 3; ++c) dst[c] += weight[c] * v;
+                    for (int c = 0; c < 3; ++c) dst[c] += weights[j][c] * v;
                 }
+            }
         }
-        if (r.setup().stack.top == rte::Top::Rough) continue; // no TMS under a rough surface
+    });
+    // The single-scattering terms of every sample and layer (none under a rough surface: no TMS).
+    std::vector<std::vector<SingleScatteringTerm>> per_sample(which.size());
+    parallel_for(static_cast<int>(which.size()), available_cpus(), [&](int j) {
+        const rte::Reflection& r = material.samples[which[j]].reflection;
+        if (r.setup().stack.top == rte::Top::Rough) return;
+        const double inv_sqrt_pi = 1.0 / std::sqrt(std::numbers::pi);
         for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer) {
             const rte::Reflection::ScatteringLayer l = r.scattering_layer(layer);
-            for (int p = 0; p < in.phase_points; ++p) {
-                const double x = static_cast<double>(p) / (in.phase_points - 1); // sin(Theta / 2)
-                in.phase.push_back(0.25 * l.albedo * rte::phase_value(*l.beta, 1.0 - 2.0 * x * x));
+            SingleScatteringTerm t{l.index, l.tau, layer == 0, weights[j], {}, {}};
+            t.phase.resize(phase_table_points);
+            for (int p = 0; p < phase_table_points; ++p) { // u_p = 2 (p - 1) / intervals - 1
+                const double u = 2.0 * (p - 1) / phase_table_intervals - 1.0;
+                t.phase[p] = 0.25 * l.albedo * rte::phase_value(*l.beta, -u * std::sqrt(2.0 - u * u)); // cos(Theta)
             }
-            in.refractive_index.push_back(l.index);
-            in.tau.push_back(l.tau);
-            for (int p = 0; p < fresnel_table_points; ++p)
-                in.transmission.push_back(r.path_factor(layer, static_cast<double>(p) / (fresnel_table_points - 1)) *
-                                          inv_sqrt_pi);
-            for (int c = 0; c < 3; ++c) in.weight.push_back(weight[c]);
-            ++in.samples;
+            t.transmission.resize(fresnel_table_points);
+            for (int p = 1; p + 1 < fresnel_table_points; ++p) // mu_p = (p - 1) / intervals
+                t.transmission[p] = r.path_factor(layer, static_cast<double>(p - 1) / fresnel_table_intervals) * inv_sqrt_pi;
+            extrapolate_ghosts(t.transmission);
+            per_sample[j].push_back(std::move(t));
         }
-    }
+    });
+    std::vector<SingleScatteringTerm> terms;
+    for (auto& sample_terms : per_sample)
+        for (SingleScatteringTerm& t : sample_terms) terms.push_back(std::move(t));
+    share_single_scattering(terms, material.settings.tolerance, in);
     prepare_lobe(material, which, weights, in);
     return in;
 }
@@ -239,14 +424,23 @@ void for_each_spectral_fill(const SolvedMaterial& material, const std::function<
     }
 }
 
-Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi) {
+namespace {
+
+// What a cell's value needs of its two directions: the zenith angles (the grid's stencils), their
+// cosines, and the cosine of the azimuth between them (cos(m phi) by recurrence, the single
+// scattering and the lobe need nothing else of phi).
+struct CellDirections {
+    double theta_i, theta_o, mu_i, mu_o, cos_phi;
+};
+
+Rgb cell_value(const FillInputs& in, const CellDirections& d) {
     Rgb out{0.0, 0.0, 0.0};
-    const double mu_i = std::cos(theta_i), mu_o = std::cos(theta_o);
+    const double mu_i = d.mu_i, mu_o = d.mu_o;
     if (mu_i <= 0.0 || mu_o <= 0.0) return out;
     const int e = in.grid;
     // Multiply scattered part: interpolate each order, then sum cos(m phi) by the Chebyshev recurrence.
-    const Stencil so = stencil(theta_o, e), si = stencil(theta_i, e);
-    const double c1 = std::cos(phi);
+    const Stencil so = stencil(d.theta_o, e), si = stencil(d.theta_i, e);
+    const double c1 = d.cos_phi;
     double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
     const int mp = padded_orders(in.orders);
     constexpr int block = 3 * fill_order_block;
@@ -266,30 +460,31 @@ Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi)
             cm = next;
         }
     }
-    // Single scattering with the full phase function, per sample (its own refraction). Snell:
-    // sin(theta inside) = sin(theta in air) / n, so only the cosines inside need a square root.
-    const double sin_i = std::sqrt(std::max(0.0, 1.0 - mu_i * mu_i)), sin_o = std::sqrt(std::max(0.0, 1.0 - mu_o * mu_o));
-    const int kp = in.phase_points, kf = in.fresnel_points;
-    for (int s = 0; s < in.samples; ++s) {
-        const double n = in.refractive_index[s], inv_n2 = 1.0 / (n * n);
-        const double ui = std::sqrt(1.0 - sin_i * sin_i * inv_n2), uo = std::sqrt(1.0 - sin_o * sin_o * inv_n2);
-        const double cos_scatter = std::clamp(-uo * ui - sin_o * sin_i * inv_n2 * c1, -1.0, 1.0);
-        const double phase = lerp_table(&in.phase[static_cast<std::size_t>(s) * kp], kp, std::sqrt(0.5 * (1.0 - cos_scatter)));
-        // tab(mu) = A(mu) / (n sqrt(pi)): the term's factor A(mu_o) A(mu_i) / (n^2 pi).
-        const double* t = &in.transmission[static_cast<std::size_t>(s) * kf];
-        const double factor = lerp_table(t, kf, mu_o) * lerp_table(t, kf, mu_i);
-        const double slab = std::isinf(in.tau[s]) ? 1.0 : -std::expm1(-in.tau[s] * (1.0 / uo + 1.0 / ui));
-        const double v = factor * phase / (uo + ui) * slab;
-        for (int c = 0; c < 3; ++c) out[c] += in.weight[s * 3 + c] * v;
-    }
+    add_single_scattering(in, mu_i, mu_o, c1, out);
     for (double& v : out) v = std::max(0.0, v);
     if (in.lobe != FillInputs::Lobe::None) {
-        const LobeGeometry g = lobe_geometry(in, mu_i, mu_o, phi);
+        const LobeGeometry g = lobe_geometry(in, mu_i, mu_o, c1);
         for (int c = 0; c < 3; ++c)
             out[c] = std::max(0.0, out[c] + g.value * cubic_table(&in.lobe_fresnel[static_cast<std::size_t>(c) * in.lobe_points],
                                                                   in.lobe_points, g.cos_d));
     }
     return out;
+}
+
+// The cosines of a cell's bin-centre directions: of the zenith angles (clamped to [-1, 1]) and of
+// the azimuth between them, from the directions' horizontal components (1 where one is vertical),
+// instead of the angles' trigonometry (kernels/table_fill.cl computes the same).
+CellDirections cell_directions(const formats::Vec3& wi, const formats::Vec3& wo) {
+    const double mu_i = std::clamp(wi.z, -1.0, 1.0), mu_o = std::clamp(wo.z, -1.0, 1.0);
+    const double horizontal = std::sqrt((wi.x * wi.x + wi.y * wi.y) * (wo.x * wo.x + wo.y * wo.y));
+    const double cos_phi = horizontal > 0.0 ? std::clamp((wi.x * wo.x + wi.y * wo.y) / horizontal, -1.0, 1.0) : 1.0;
+    return {std::acos(mu_i), std::acos(mu_o), mu_i, mu_o, cos_phi};
+}
+
+} // namespace
+
+Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi) {
+    return cell_value(in, {theta_i, theta_o, std::cos(theta_i), std::cos(theta_o), std::cos(phi)});
 }
 
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
@@ -302,10 +497,7 @@ formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
             const formats::CellIndices ix = formats::cell_indices(cell);
             const formats::DirectionPair d = formats::to_directions(
                 formats::theta_h_centre(ix.theta_h), formats::theta_d_centre(ix.theta_d), formats::phi_d_centre(ix.phi_d));
-            const double theta_i = std::acos(std::clamp(d.wi.z, -1.0, 1.0));
-            const double theta_o = std::acos(std::clamp(d.wo.z, -1.0, 1.0));
-            const double phi = std::atan2(d.wo.y, d.wo.x) - std::atan2(d.wi.y, d.wi.x);
-            table.set(cell, fill_value(in, theta_i, theta_o, phi));
+            table.set(cell, cell_value(in, cell_directions(d.wi, d.wo)));
         }
     });
     return table;

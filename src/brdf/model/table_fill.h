@@ -38,18 +38,24 @@ struct FillInputs {
     /// together, in blocks of fill_order_block orders: a cell's interpolation is then 16 taps of
     /// contiguous blocks, which the compilers vectorise (C++ and OpenCL alike).
     std::vector<double> fourier;
-    /// S: single-scattering terms, one per wavelength (or channel) and layer, each with its own
-    /// refraction (Reflection::single_scattering).
+    /// S: single-scattering terms, each with its own refraction: one per wavelength (or channel)
+    /// and layer (Reflection::single_scattering), or, for a half-space whose wavelengths differ only
+    /// in their binder index, one per node of an interpolation in that index (table_fill.cpp:
+    /// share_single_scattering), which is exact to 1 % of the tolerance on a probe set.
     int samples = 0;
-    int phase_points = 0; ///< K: phase[s * K + k] = (w_s / 4) p_s at sin(Theta/2) = k / (K - 1)
+    /// K: phase[(s * K + k) * 3 + c] = w_s,c (albedo_s / 4) p_s at u = sin(Theta/2) - cos(Theta/2) =
+    /// 2 (k - 1) / (K - 3) - 1:
+    /// the term's phase table, colour weights included, interpolated by Catmull-Rom (one ghost point
+    /// beyond each end).
+    int phase_points = 0;
     std::vector<double> phase;
     std::vector<double> refractive_index; ///< [s]: the layer's index (1: no interface)
-    /// F: transmission[s * F + k] = A(mu_k) / (n sqrt(pi)), mu_k = k / (F - 1): the layer's path
-    /// factor (Reflection::path_factor) as a table, so the term's factor is t(mu_o) t(mu_i).
+    /// F: transmission[s * F + k] = A(mu_k) / (n sqrt(pi)), mu_k = (k - 1) / (F - 3): the layer's
+    /// path factor (Reflection::path_factor) as a table (Catmull-Rom, one ghost point beyond each
+    /// end), so the term's factor is t(mu_o) t(mu_i).
     int fresnel_points = 0;
     std::vector<double> transmission;
-    std::vector<double> tau;    ///< [s]: the layer's (delta-M scaled) optical thickness, infinite for a half-space
-    std::vector<double> weight; ///< [s * 3 + c]
+    std::vector<double> tau; ///< [s]: the layer's (delta-M scaled) optical thickness, infinite for a half-space
 
     /// The rough top's first-surface lobe (every sample shares alpha, distribution and masking).
     enum class Lobe { None = 0, Ggx = 1, Beckmann = 2 };
