@@ -79,9 +79,9 @@ struct SpectralFill {
     FillInputs inputs;
     std::array<int, 3> sample{-1, -1, -1};
 };
-/// Calls `fill` with the groups of every solved sample, in order, one at a time (each group's
-/// inputs are assembled when its turn comes: they hold a copy of its Fourier grids); the Nystrom
-/// grids are computed once for all.
+/// Calls `fill` with the groups of every solved sample, in order, one at a time: each group's
+/// inputs, its samples' Nystrom grids included, are computed when its turn comes (each sample's
+/// once), so no more than one group's grids are held.
 void for_each_spectral_fill(const SolvedMaterial& material, const std::function<void(const SpectralFill&)>& fill);
 
 /// BRDF of one direction triple (radians) from the fill inputs: the per-cell computation.

@@ -38,7 +38,8 @@ ClSolverKernel resolve_solver_kernel(ClSolverKernel requested = ClSolverKernel::
 /// InputError for a problem with more than max_opencl_streams streams or inconsistent sizes.
 /// Uses brdf::cl::Context::shared(); very large batches are split into several launches
 /// (launch_ranges) so that the workspace fits one allocation: `workspace_budget_bytes`, or when 0 the
-/// device's CL_DEVICE_MAX_MEM_ALLOC_SIZE capped at 1 GiB.
+/// device's CL_DEVICE_MAX_MEM_ALLOC_SIZE capped at 1 GiB (128 MiB on a CPU device, where it is the
+/// process's own memory).
 std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> problems, Method method,
                                                const SolveControl& control,
                                                ClSolverKernel kernel = ClSolverKernel::Automatic,
