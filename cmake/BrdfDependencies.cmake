@@ -22,17 +22,7 @@ endif()
 brdf_require_package(nlohmann_json "nlohmann-json3-dev")
 brdf_require_package(CLI11 "libcli11-dev")
 brdf_require_package(OpenEXR "libopenexr-dev")
-brdf_require_package(OpenImageIO "libopenimageio-dev")
-# Debian's OpenImageIO target lists /usr/include/opencv4 among its include folders, which exists only
-# with libopencv-dev installed, and CMake refuses to generate with a missing one: keep those that exist.
-get_target_property(brdf_oiio_includes OpenImageIO::OpenImageIO INTERFACE_INCLUDE_DIRECTORIES)
-set(brdf_oiio_existing)
-foreach(dir IN LISTS brdf_oiio_includes)
-  if(EXISTS "${dir}")
-    list(APPEND brdf_oiio_existing "${dir}")
-  endif()
-endforeach()
-set_property(TARGET OpenImageIO::OpenImageIO PROPERTY INTERFACE_INCLUDE_DIRECTORIES ${brdf_oiio_existing})
+brdf_require_package(PNG "libpng-dev")
 find_package(Threads REQUIRED)
 # Dense linear algebra: OpenBLAS (runtime CPU dispatch, so one portable build uses AVX2/AVX-512 where
 # the machine has them) for BLAS and LAPACK, with the LAPACKE C interface (liblapacke-dev's header;
@@ -48,6 +38,20 @@ endif()
 
 if(BRDF_BUILD_TESTS)
   brdf_require_package(GTest "googletest libgtest-dev")
+  # The tests read our images and tables back with an independent reader, OpenImageIO (brdftool
+  # itself does not link it: it loads some 260 libraries, 0.3 s at every start).
+  brdf_require_package(OpenImageIO "libopenimageio-dev")
+  # Debian's OpenImageIO target lists /usr/include/opencv4 among its include folders, which exists only
+  # with libopencv-dev installed, and CMake refuses to generate with a missing one: keep those that exist.
+  get_target_property(brdf_oiio_includes OpenImageIO::OpenImageIO INTERFACE_INCLUDE_DIRECTORIES)
+  set(brdf_oiio_existing)
+  foreach(dir IN LISTS brdf_oiio_includes)
+    if(EXISTS "${dir}")
+      list(APPEND brdf_oiio_existing "${dir}")
+    endif()
+  endforeach()
+  set_property(TARGET OpenImageIO::OpenImageIO PROPERTY INTERFACE_INCLUDE_DIRECTORIES ${brdf_oiio_existing})
+
   # The formats tests run an independent numpy reader of the Fourier BSDF files.
   brdf_require_package(Python3 "python3 python3-numpy" COMPONENTS Interpreter)
 endif()

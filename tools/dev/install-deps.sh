@@ -8,7 +8,8 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
-  libopenimageio-dev openimageio-tools libopenexr-dev openexr
+  libpng-dev libopenexr-dev openexr
+  libopenimageio-dev openimageio-tools
   nlohmann-json3-dev libcli11-dev
   libopenblas-dev liblapacke-dev
   libgtest-dev libgmock-dev googletest libbenchmark-dev

@@ -27,7 +27,7 @@ namespace brdf {
 class AtomicFile {
 public:
     /// Creates the temporary (O_EXCL, mode 0666 less the umask) in the folder of `target`.
-    /// `suffix` ends its name, for writers that pick a format by the extension (OpenImageIO).
+    /// `suffix` ends its name, for writers that pick a format by the extension.
     explicit AtomicFile(std::filesystem::path target, std::string_view suffix = {});
     /// Removes the temporary unless commit() succeeded.
     ~AtomicFile();

@@ -4,11 +4,18 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 
-#include <OpenImageIO/imageio.h>
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStandardAttributes.h>
+#include <ImfStringAttribute.h>
+#include <png.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <string>
 
 namespace brdf::preview {
 
@@ -54,34 +61,62 @@ ImageFormat output_format(const std::filesystem::path& path) {
                          "' (expected .png or .exr)"));
 }
 
+namespace {
+
+// 8-bit sRGB through libpng's simplified API (the sRGB chunk comes with it).
+bool write_png(const Image& image, const std::filesystem::path& file, const ToneOptions& tone, std::string& error) {
+    std::vector<std::uint8_t> bytes(image.pixels.size());
+    for (std::size_t k = 0; k < bytes.size(); ++k)
+        bytes[k] = static_cast<std::uint8_t>(std::lround(255.0 * srgb_encode(tone_map(image.pixels[k], tone))));
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    png.width = static_cast<png_uint_32>(image.width);
+    png.height = static_cast<png_uint_32>(image.height);
+    png.format = PNG_FORMAT_RGB;
+    const bool ok = png_image_write_to_file(&png, file.c_str(), 0, bytes.data(), 3 * image.width, nullptr) != 0;
+    if (!ok) error = png.message;
+    png_image_free(&png);
+    return ok;
+}
+
+// Linear 32-bit float R, G, B, ZIP compressed, Rec.709 chromaticities.
+bool write_exr(const Image& image, const std::filesystem::path& file, std::string& error) {
+    try {
+        Imf::Header header(image.width, image.height);
+        header.compression() = Imf::ZIP_COMPRESSION;
+        Imf::addChromaticities(header, Imf::Chromaticities());
+        header.insert("software", Imf::StringAttribute("brdftool preview"));
+        Imf::FrameBuffer frame;
+        const char* names[] = {"R", "G", "B"};
+        for (int c = 0; c < 3; ++c) {
+            header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
+            // OpenEXR's slices take a non-const base pointer; the writer only reads through it.
+            char* base = reinterpret_cast<char*>(const_cast<float*>(image.pixels.data() + c));
+            frame.insert(names[c], Imf::Slice(Imf::FLOAT, base, 3 * sizeof(float), 3 * sizeof(float) * image.width));
+        }
+        Imf::OutputFile out(file.c_str(), header);
+        out.setFrameBuffer(frame);
+        out.writePixels(image.height);
+        return true;
+    } catch (const std::exception& e) {
+        error = e.what();
+        return false;
+    }
+}
+
+} // namespace
+
 void write_image(const Image& image, const std::filesystem::path& path, const ToneOptions& tone) {
     const ImageFormat format = output_format(path);
     if (image.width <= 0 || image.height <= 0 ||
         image.pixels.size() != static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height) * 3)
         throw InputError(cat(path.string(), ": image has no pixels or a wrong pixel count"));
-
-    // Same folder (the rename stays atomic), same extension (OpenImageIO picks the format by it).
+    // Same folder (the rename stays atomic), same extension.
     AtomicFile temp(path, path.extension().string());
-    auto out = OIIO::ImageOutput::create(path.string());
-    if (!out) throw IoError(cat(path.string(), ": OpenImageIO cannot write this format: ", OIIO::geterror()));
-    OIIO::ImageSpec spec(image.width, image.height, 3,
-                         format == ImageFormat::Png ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::FLOAT);
-    spec.attribute("Software", "brdftool preview");
-    bool ok = false;
-    if (format == ImageFormat::Exr) {
-        spec.attribute("compression", "zip");
-        spec.attribute("oiio:ColorSpace", "Linear");
-        ok = out->open(temp.temporary().string(), spec) && out->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data());
-    } else {
-        spec.attribute("oiio:ColorSpace", "sRGB");
-        std::vector<std::uint8_t> bytes(image.pixels.size());
-        for (std::size_t k = 0; k < bytes.size(); ++k)
-            bytes[k] = static_cast<std::uint8_t>(std::lround(255.0 * srgb_encode(tone_map(image.pixels[k], tone))));
-        ok = out->open(temp.temporary().string(), spec) && out->write_image(OIIO::TypeDesc::UINT8, bytes.data());
-    }
-    ok = out->close() && ok;
-    if (!ok) throw IoError(cat(path.string(), ": cannot write: ", out->geterror()));
-    out.reset();
+    std::string error;
+    const bool ok = format == ImageFormat::Exr ? write_exr(image, temp.temporary(), error)
+                                               : write_png(image, temp.temporary(), tone, error);
+    if (!ok) throw IoError(cat(path.string(), ": cannot write: ", error));
     temp.commit();
 }
 
