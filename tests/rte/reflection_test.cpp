@@ -108,6 +108,18 @@ TEST(Reciprocity, BrdfIsSymmetric) {
     }
 }
 
+// The orders are independent: computed on several threads the grid is the same, bit for bit, each
+// order in its place.
+TEST(OrderGrid, SeveralThreadsGiveTheSameGrid) {
+    const rte::Reflection r = solve_cpu({0.95, hg_beta(0.7, 300)}, 16, 1.5);
+    const std::vector<double> mu{1.0, 0.7, 0.3, 0.05};
+    const rte::OrderGrid one = r.order_grid(mu), three = r.order_grid(mu, 3);
+    ASSERT_GT(one.orders.size(), 2u);
+    ASSERT_EQ(one.orders.size(), three.orders.size());
+    for (std::size_t m = 0; m < one.orders.size(); ++m)
+        EXPECT_EQ(max_abs_diff(one.orders[m], three.orders[m]), 0.0) << "order " << m;
+}
+
 TEST(Azimuth, ForwardScatteringLobeIsOnTheMirrorSide) {
     const rte::Reflection r = solve_cpu({0.9, hg_beta(0.9, 400)}, 32);
     const double mu = std::cos(60.0 * std::numbers::pi / 180.0);

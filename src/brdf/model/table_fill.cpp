@@ -348,8 +348,9 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
     for (std::size_t first = 0; first < which.size(); first += chunk) {
         const std::size_t count = std::min(chunk, which.size() - first);
         std::vector<rte::OrderGrid> grids(count);
+        const int inner = std::max(1, cpus / static_cast<int>(count)); // few samples: their orders in parallel
         parallel_for(static_cast<int>(count), cpus,
-                     [&](int k) { grids[k] = material.samples[which[first + k]].reflection.order_grid(mu); });
+                     [&](int k) { grids[k] = material.samples[which[first + k]].reflection.order_grid(mu, inner); });
         parallel_for(e, cpus, [&](int o) { // one zenith row of the colour grid per task
             for (std::size_t k = 0; k < count; ++k) {
                 const rte::OrderGrid& g = grids[k];

@@ -356,7 +356,7 @@ double Reflection::single_scattering(double mu_o, double mu_i, double phi) const
     return sum;
 }
 
-OrderGrid Reflection::order_grid(std::span<const double> mu_air) const {
+OrderGrid Reflection::order_grid(std::span<const double> mu_air, int threads) const {
     OrderGrid grid;
     for (double mu : mu_air) grid.mu.push_back(clamp_mu(mu));
     const std::vector<double>& mu = grid.mu;
@@ -372,12 +372,14 @@ OrderGrid Reflection::order_grid(std::span<const double> mu_air) const {
         // TMS correction (exact phase function on one pair of refracted directions) does not
         // apply as it does under a smooth top (docs/physics.md, "Rough interface").
         const InterfaceKernels k = rough_kernels(mu, m_setup.orders, false);
-        for (int m = 0; m < m_setup.orders; ++m) grid.orders.push_back(rough_body(m, k));
+        grid.orders.resize(static_cast<std::size_t>(m_setup.orders));
+        parallel_for(m_setup.orders, threads, [&](int m) { grid.orders[m] = rough_body(m, k); });
         return grid;
     }
     for (int k = 0; k < nl; ++k)
         for (double m : mu) factor[k].push_back(path_factor(k, m)), u[k].push_back(inside(k, m));
-    for (int m = 0; m < m_setup.orders; ++m) {
+    grid.orders.resize(static_cast<std::size_t>(m_setup.orders));
+    parallel_for(m_setup.orders, threads, [&](int m) {
         Matrix r = external(m, mu).ee;
         if (tms)
             for (int k = 0; k < nl; ++k) {
@@ -389,8 +391,8 @@ OrderGrid Reflection::order_grid(std::span<const double> mu_air) const {
                         r(a, b) -= factor[k][a] * factor[k][b] * 0.25 * om * puu.minus(a, b) / (u[k][a] + u[k][b]) *
                                    slab_factor(ls.tau, u[k][a], u[k][b]);
             }
-        grid.orders.push_back(std::move(r));
-    }
+        grid.orders[m] = std::move(r);
+    });
     return grid;
 }
 

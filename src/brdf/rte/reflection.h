@@ -103,8 +103,10 @@ public:
 
     /// The multiply scattered part on a set of cosines in air, for tables and evaluation. Under a
     /// rough top: the body (every order of the light that entered; its single scattering included,
-    /// see order_grid in reflection.cpp), without the first-surface lobe.
-    OrderGrid order_grid(std::span<const double> mu_air) const;
+    /// see order_grid in reflection.cpp), without the first-surface lobe. The orders are
+    /// independent: `threads` > 1 computes them on that many threads (a material of one or two
+    /// samples would leave cores idle otherwise).
+    OrderGrid order_grid(std::span<const double> mu_air, int threads = 1) const;
     /// The exact single scattering of the full phase functions on the direct paths of every layer,
     /// as R (BRDF = R / pi), with interface and attenuation factors.
     double single_scattering(double mu_o, double mu_i, double phi) const;
