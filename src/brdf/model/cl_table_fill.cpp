@@ -102,7 +102,8 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     FillParams params{};
     std::vector<double> data;
     data.reserve(in.fourier.size() + in.phase.size() + in.refractive_index.size() + in.transmission.size() +
-                 in.tau.size() + in.lobe_fresnel.size() + 2 * (formats::theta_h_bins + formats::theta_d_bins + formats::phi_d_bins));
+                 in.tau.size() + in.lobe_fresnel.size() +
+                 2 * (formats::theta_h_bins + formats::theta_d_bins + formats::phi_d_bins));
     auto append = [&data](const std::vector<double>& v) {
         const auto offset = static_cast<brdf_i64>(data.size());
         data.insert(data.end(), v.begin(), v.end());

@@ -86,14 +86,16 @@ Rgb cubic_rgb_table(const double* table, int points, double x) {
     const CubicTaps c = cubic_taps(points, x);
     const double* v = table + 3 * static_cast<std::size_t>(c.k);
     Rgb out{};
-    for (int ch = 0; ch < 3; ++ch) out[ch] = c.w[0] * v[ch] + c.w[1] * v[3 + ch] + c.w[2] * v[6 + ch] + c.w[3] * v[9 + ch];
+    for (int ch = 0; ch < 3; ++ch)
+        out[ch] = c.w[0] * v[ch] + c.w[1] * v[3 + ch] + c.w[2] * v[6 + ch] + c.w[3] * v[9 + ch];
     return out;
 }
 
 // Single scattering with the full phase function, per term (its own refraction), added to `out`.
 // Snell: sin(theta inside) = sin(theta in air) / n, so only the cosines inside need a square root.
 void add_single_scattering(const FillInputs& in, double mu_i, double mu_o, double cos_phi, Rgb& out) {
-    const double sin_i = std::sqrt(std::max(0.0, 1.0 - mu_i * mu_i)), sin_o = std::sqrt(std::max(0.0, 1.0 - mu_o * mu_o));
+    const double sin_i = std::sqrt(std::max(0.0, 1.0 - mu_i * mu_i));
+    const double sin_o = std::sqrt(std::max(0.0, 1.0 - mu_o * mu_o));
     const int kp = in.phase_points, kf = in.fresnel_points;
     for (int s = 0; s < in.samples; ++s) {
         const double n = in.refractive_index[s], inv_n2 = 1.0 / (n * n);
@@ -132,8 +134,9 @@ double smith_lambda(FillInputs::Lobe lobe, double alpha, double mu, double s) {
 }
 
 // The first-surface lobe without its Fresnel factor, D(h) G(wi, wo) / (4 mu_i mu_o), and the cosine
-// wi.h it needs, for the graphics azimuth phi given by its cosine (the geometry of rte/rough_interface.cpp: with
-// omc = 1 + cos(phi), tan^2(theta_h) = ((s_i - s_o)^2 + 2 s_i s_o omc) / (mu_i + mu_o)^2 and
+// wi.h it needs, for the graphics azimuth phi given by its cosine (the geometry of
+// rte/rough_interface.cpp: with omc = 1 + cos(phi),
+// tan^2(theta_h) = ((s_i - s_o)^2 + 2 s_i s_o omc) / (mu_i + mu_o)^2 and
 // wi.wo = mu_i mu_o - s_i s_o + s_i s_o omc).
 struct LobeGeometry {
     double cos_d = 0.0;
@@ -215,15 +218,16 @@ struct SingleScatteringTerm {
 
 // Appends a term with the refraction and path factor of `geometry` and the phase table
 // sum_k coefficient_k weight_k phase_k over `sources` (RGB).
-void append_term(FillInputs& in, const SingleScatteringTerm& geometry, const std::vector<const SingleScatteringTerm*>& sources,
-                 const std::vector<Rgb>& weights) {
+void append_term(FillInputs& in, const SingleScatteringTerm& geometry,
+                 const std::vector<const SingleScatteringTerm*>& sources, const std::vector<Rgb>& weights) {
     in.phase_points = phase_table_points;
     in.fresnel_points = fresnel_table_points;
     const std::size_t base = in.phase.size();
     in.phase.resize(base + 3 * static_cast<std::size_t>(phase_table_points), 0.0);
     for (std::size_t k = 0; k < sources.size(); ++k)
         for (int p = 0; p < phase_table_points; ++p)
-            for (int c = 0; c < 3; ++c) in.phase[base + 3 * static_cast<std::size_t>(p) + c] += weights[k][c] * sources[k]->phase[p];
+            for (int c = 0; c < 3; ++c)
+                in.phase[base + 3 * static_cast<std::size_t>(p) + c] += weights[k][c] * sources[k]->phase[p];
     in.refractive_index.push_back(geometry.index);
     in.tau.push_back(geometry.tau);
     in.transmission.insert(in.transmission.end(), geometry.transmission.begin(), geometry.transmission.end());
@@ -250,7 +254,8 @@ double probe_error(const FillInputs& exact, const FillInputs& scale, const FillI
     for (double ti : degrees)
         for (double to : degrees)
             for (int k = 0; k <= 4; ++k) {
-                const double mu_i = std::cos(ti * std::numbers::pi / 180.0), mu_o = std::cos(to * std::numbers::pi / 180.0);
+                const double mu_i = std::cos(ti * std::numbers::pi / 180.0);
+                const double mu_o = std::cos(to * std::numbers::pi / 180.0);
                 const double cos_phi = std::cos(k * std::numbers::pi / 4.0);
                 Rgb e{}, a{}, s{};
                 add_single_scattering(exact, mu_i, mu_o, cos_phi, e);
@@ -382,7 +387,8 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
             }
             t.transmission.resize(fresnel_table_points);
             for (int p = 1; p + 1 < fresnel_table_points; ++p) // mu_p = (p - 1) / intervals
-                t.transmission[p] = r.path_factor(layer, static_cast<double>(p - 1) / fresnel_table_intervals) * inv_sqrt_pi;
+                t.transmission[p] =
+                    r.path_factor(layer, static_cast<double>(p - 1) / fresnel_table_intervals) * inv_sqrt_pi;
             extrapolate_ghosts(t.transmission);
             per_sample[j].push_back(std::move(t));
         }
