@@ -113,4 +113,21 @@ Quadrature gauss_legendre(int n, double a, double b) {
     return q;
 }
 
+std::vector<double> chebyshev_lobatto(int n, double a, double b) {
+    std::vector<double> out;
+    const double mid = 0.5 * (a + b), half = 0.5 * (b - a);
+    for (int j = 0; j < n; ++j) out.push_back(mid - half * std::cos(std::numbers::pi * j / (n - 1)));
+    out.front() = a; // exactly: a sample at either end is then a node
+    out.back() = b;
+    return out;
+}
+
+std::vector<double> lagrange_weights(std::span<const double> nodes, double x) {
+    std::vector<double> weight(nodes.size(), 1.0);
+    for (std::size_t j = 0; j < nodes.size(); ++j)
+        for (std::size_t i = 0; i < nodes.size(); ++i)
+            if (i != j) weight[j] *= (x - nodes[i]) / (nodes[j] - nodes[i]);
+    return weight;
+}
+
 } // namespace brdf

@@ -2,6 +2,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/quadrature.h>
 #include <brdf/core/threads.h>
 #include <brdf/rte/interface.h>
 #include <brdf/rte/phase.h>
@@ -245,25 +246,39 @@ void take_terms(FillInputs& from, FillInputs& to) {
     to.tau = std::move(from.tau);
 }
 
-// Largest error of `shared` against `exact` over a probe set of directions (0 to 89.7 degrees in
-// both zenith angles, 0 to 180 in azimuth), per channel relative to `scale`, the same sum with
-// absolute colour weights (the size of what the terms add up to, whatever their signs).
-double probe_error(const FillInputs& exact, const FillInputs& scale, const FillInputs& shared) {
+// The probe set that decides whether shared terms may stand in for the per-sample ones: 0 to 89.7
+// degrees in both zenith angles, 0 to 180 in azimuth, with the per-sample sum there and its scale,
+// the same sum with absolute colour weights (the size of what the terms add up to, whatever their
+// signs).
+struct Probe {
+    double mu_i, mu_o, cos_phi;
+    Rgb exact, scale;
+};
+
+std::vector<Probe> probe_set(const FillInputs& exact, const FillInputs& scale) {
     constexpr double degrees[] = {0.0, 20.0, 40.0, 55.0, 65.0, 75.0, 82.0, 86.0, 88.5, 89.7};
-    double worst = 0.0;
+    std::vector<Probe> out;
     for (double ti : degrees)
         for (double to : degrees)
             for (int k = 0; k <= 4; ++k) {
-                const double mu_i = std::cos(ti * std::numbers::pi / 180.0);
-                const double mu_o = std::cos(to * std::numbers::pi / 180.0);
-                const double cos_phi = std::cos(k * std::numbers::pi / 4.0);
-                Rgb e{}, a{}, s{};
-                add_single_scattering(exact, mu_i, mu_o, cos_phi, e);
-                add_single_scattering(scale, mu_i, mu_o, cos_phi, s);
-                add_single_scattering(shared, mu_i, mu_o, cos_phi, a);
-                for (int c = 0; c < 3; ++c)
-                    if (s[c] > 0.0) worst = std::max(worst, std::abs(a[c] - e[c]) / s[c]);
+                Probe p{std::cos(ti * std::numbers::pi / 180.0), std::cos(to * std::numbers::pi / 180.0),
+                        std::cos(k * std::numbers::pi / 4.0), {}, {}};
+                add_single_scattering(exact, p.mu_i, p.mu_o, p.cos_phi, p.exact);
+                add_single_scattering(scale, p.mu_i, p.mu_o, p.cos_phi, p.scale);
+                out.push_back(p);
             }
+    return out;
+}
+
+// Largest error of `shared` on the probe set, per channel relative to its scale.
+double probe_error(const std::vector<Probe>& probes, const FillInputs& shared) {
+    double worst = 0.0;
+    for (const Probe& p : probes) {
+        Rgb a{};
+        add_single_scattering(shared, p.mu_i, p.mu_o, p.cos_phi, a);
+        for (int c = 0; c < 3; ++c)
+            if (p.scale[c] > 0.0) worst = std::max(worst, std::abs(a[c] - p.exact[c]) / p.scale[c]);
+    }
     return worst;
 }
 
@@ -300,30 +315,29 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
     FillInputs scale;
     for (const SingleScatteringTerm& t : terms)
         append_term(scale, t, {&t}, {Rgb{std::abs(t.weight[0]), std::abs(t.weight[1]), std::abs(t.weight[2])}});
-    for (std::size_t nodes = 3; 2 * nodes <= count; nodes += 2) {
+    const std::vector<Probe> probes = probe_set(exact, scale);
+    for (int nodes = 3; 2 * static_cast<std::size_t>(nodes) <= count; nodes += 2) {
         std::vector<std::size_t> node; // the sample nearest each Chebyshev-Lobatto point
-        for (std::size_t j = 0; j < nodes; ++j) {
-            const double x = 0.5 * (lo + hi) - 0.5 * (hi - lo) * std::cos(std::numbers::pi * j / (nodes - 1));
+        std::vector<double> node_index;
+        for (double x : chebyshev_lobatto(nodes, lo, hi)) {
             std::size_t best = 0;
             for (std::size_t s = 1; s < count; ++s)
                 if (std::abs(terms[s].index - x) < std::abs(terms[best].index - x)) best = s;
+            if (!node_index.empty() && !(terms[best].index > node_index.back())) break; // not distinct
             node.push_back(best);
+            node_index.push_back(terms[best].index);
         }
-        bool distinct = true;
-        for (std::size_t j = 1; j < nodes; ++j) distinct = distinct && terms[node[j]].index > terms[node[j - 1]].index;
-        if (!distinct) break;
+        if (node.size() != static_cast<std::size_t>(nodes)) break;
+        // weights[j][s]: sample s's colour weight times L_j(n_s).
+        std::vector<std::vector<Rgb>> weights(node.size());
+        for (const SingleScatteringTerm& t : terms) {
+            const std::vector<double> l = lagrange_weights(node_index, t.index);
+            for (std::size_t j = 0; j < node.size(); ++j)
+                weights[j].push_back(Rgb{l[j] * t.weight[0], l[j] * t.weight[1], l[j] * t.weight[2]});
+        }
         FillInputs shared;
-        for (std::size_t j = 0; j < nodes; ++j) {
-            std::vector<Rgb> weights;
-            for (const SingleScatteringTerm& t : terms) {
-                double l = 1.0; // L_j(n_s)
-                for (std::size_t k = 0; k < nodes; ++k)
-                    if (k != j) l *= (t.index - terms[node[k]].index) / (terms[node[j]].index - terms[node[k]].index);
-                weights.push_back(Rgb{l * t.weight[0], l * t.weight[1], l * t.weight[2]});
-            }
-            append_term(shared, terms[node[j]], all, weights);
-        }
-        const double error = probe_error(exact, scale, shared);
+        for (std::size_t j = 0; j < node.size(); ++j) append_term(shared, terms[node[j]], all, weights[j]);
+        const double error = probe_error(probes, shared);
         if (error <= 0.01 * tolerance) {
             log::debug("table fill: single scattering of ", count, " samples on ", nodes, " index nodes (",
                       error, " relative on the probe set)");

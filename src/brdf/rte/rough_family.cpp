@@ -2,10 +2,10 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/quadrature.h>
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 namespace brdf::rte {
 namespace {
@@ -54,12 +54,7 @@ std::vector<double> family_indices(double n_lo, double n_hi, int nodes) {
         throw InputError(cat("rough kernel family: index range [", n_lo, ", ", n_hi, "] is not within (1, 4]"));
     if (n_hi == n_lo) return {n_lo};
     if (nodes < 2) throw InputError(cat("rough kernel family: at least 2 indices for a range (got ", nodes, ")"));
-    std::vector<double> out;
-    const double mid = 0.5 * (n_lo + n_hi), half = 0.5 * (n_hi - n_lo);
-    for (int j = 0; j < nodes; ++j) out.push_back(mid - half * std::cos(std::numbers::pi * j / (nodes - 1)));
-    out.front() = n_lo; // exactly: a sample at either end is then a node
-    out.back() = n_hi;
-    return out;
+    return chebyshev_lobatto(nodes, n_lo, n_hi);
 }
 
 int family_nodes(double n_lo, double n_hi, double tolerance) {
@@ -169,10 +164,7 @@ InterfaceKernels RoughKernelFamily::kernels(double n, std::span<const double> ai
     // first `orders` are the answer (more orders only add quadrature nodes).
     const std::shared_ptr<Entry> e = entry(air, orders == 1 ? 1 : m_orders, internal_reflection);
     complete(*e);
-    std::vector<double> weight(m_indices.size(), 1.0); // Lagrange weights at n
-    for (std::size_t j = 0; j < m_indices.size(); ++j)
-        for (std::size_t i = 0; i < m_indices.size(); ++i)
-            if (i != j) weight[j] *= (n - m_indices[i]) / (m_indices[j] - m_indices[i]);
+    const std::vector<double> weight = lagrange_weights(m_indices, n);
     InterfaceKernels out;
     out.t_down = combine(e->at, weight, orders, &InterfaceKernels::t_down);
     out.t_up = combine(e->at, weight, orders, &InterfaceKernels::t_up);
