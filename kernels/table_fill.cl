@@ -73,13 +73,16 @@ static double smith_lambda(int lobe, double alpha, double mu, double s) {
 __kernel void table_fill(__global const FillParams* params_in, __global const double* data,
                          __global double* output) {
     const FillParams p = *params_in;
+    // One work item per cell of the first half of phi_d, writing it and its mirror phi_d -> pi -
+    // phi_d (table_fill.cpp: fill_table_cpu says why they are equal).
     const long id = (long)get_global_id(0);
-    if (id >= p.cell_count) return;
-    const long cell = id;
+    if (id >= p.cell_count / 2) return;
+    const int phi_k = (int)(id % (TF_PHI_D_BINS / 2));
+    const long rest = id / (TF_PHI_D_BINS / 2);
+    const long cell = rest * TF_PHI_D_BINS + phi_k;
+    const long mirror = rest * TF_PHI_D_BINS + (TF_PHI_D_BINS - 1 - phi_k);
 
     // formats::cell_indices; the bin centres' sin and cos from the host's table.
-    const int phi_k = (int)(cell % TF_PHI_D_BINS);
-    const long rest = cell / TF_PHI_D_BINS;
     const int theta_dj = (int)(rest % TF_THETA_D_BINS);
     const int theta_hi = (int)(rest / TF_THETA_D_BINS);
     __global const double* trig = data + p.geometry_offset;
@@ -95,9 +98,9 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
     const double wox = mdx * ch + dz * sh, woy = mdy, woz = -mdx * sh + dz * ch;
 
     if (wiz <= 0.0 || woz <= 0.0) { // formats::cell_below_horizon
-        output[cell] = TF_NO_DATA;
-        output[TF_CELLS + cell] = TF_NO_DATA;
-        output[2 * TF_CELLS + cell] = TF_NO_DATA;
+        output[cell] = output[mirror] = TF_NO_DATA;
+        output[TF_CELLS + cell] = output[TF_CELLS + mirror] = TF_NO_DATA;
+        output[2 * TF_CELLS + cell] = output[2 * TF_CELLS + mirror] = TF_NO_DATA;
         return;
     }
     // table_fill.cpp: cell_directions.
@@ -188,7 +191,7 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             out2 = max0_ref(out2 + value * cubic_table(fresnel + 2 * (long)lp, lp, cos_d));
         }
     }
-    output[cell] = out0;
-    output[TF_CELLS + cell] = out1;
-    output[2 * TF_CELLS + cell] = out2;
+    output[cell] = output[mirror] = out0;
+    output[TF_CELLS + cell] = output[TF_CELLS + mirror] = out1;
+    output[2 * TF_CELLS + cell] = output[2 * TF_CELLS + mirror] = out2;
 }

@@ -148,9 +148,10 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     brdf::cl::check(kernel.setArg(1, data_buf), "OpenCL table fill: set argument inputs");
     brdf::cl::check(kernel.setArg(2, out_buf), "OpenCL table fill: set argument output");
 
-    // Global size rounded up to a multiple of the local size; the kernel ignores ids past the cells.
+    // A work item per cell of the first phi_d half (it writes the mirror too); the global size is
+    // rounded up to a multiple of the local size, and the kernel ignores ids past the half.
     constexpr std::size_t local = 64;
-    const std::size_t global = (formats::cells + local - 1) / local * local;
+    const std::size_t global = (formats::cells / 2 + local - 1) / local * local;
     ::cl::CommandQueue& queue = ctx->queue();
     brdf::cl::check(queue.enqueueNDRangeKernel(kernel, ::cl::NullRange, ::cl::NDRange(global), ::cl::NDRange(local)),
                     "OpenCL table fill: run table_fill");
