@@ -6,7 +6,9 @@
 #include "preview_test_support.h"
 #include "test_support.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace brdf::test {
 namespace {
@@ -159,6 +161,48 @@ TEST(RenderSphere, TabulatedBrdfMatchesTheFunction) {
     for (double ti : {0.1, 0.5, 1.0, 1.4})
         for (double to : {0.05, 0.7, 1.3})
             for (double phi : {0.0, 1.0, 3.0, -2.0}) EXPECT_NEAR(t(ti, to, phi)[0], f(ti, to, phi)[0], 2e-3);
+}
+
+// The tabulated body is looked up once per sub-pixel at the light disc's cosine-weighted centroid,
+// the cosine and the horizon integrated sample by sample. Against the exact BRDF at every one of
+// the disc's samples (theta_nodes 0: the BRDF as given), beside the table looked up at every
+// sample, for a BRDF with azimuthal structure and a light along the view (the disc holds the
+// normal: phi degenerates) or at 60 degrees (the terminator crosses the sphere). The table's own
+// interpolation dominates (0.4-12 % here, at grazing); the centroid moves the image by less than
+// one step of an 8-bit PNG from the table at each sample, also for a 10-degree disc, and adds
+// less than half a step to the table's error.
+TEST(RenderSphere, DiscCentroidLookupMatchesSampleBySample) {
+    const preview::BrdfFunction f = [](double ti, double to, double phi) {
+        const double v = 0.2 + 0.15 * std::cos(phi) * std::sin(ti) * std::sin(to) + 0.1 * std::cos(ti) * std::cos(ti);
+        return preview::Rgb{v, 0.5 * v, 0.25 * v};
+    };
+    for (double size : {2.0, 10.0})
+        for (double light : {0.0, 60.0}) {
+            preview::RenderOptions centroid = small(96);
+            centroid.light_theta_deg = light;
+            centroid.light_size_deg = size;
+            preview::RenderOptions each = centroid;
+            each.theta_nodes = each.phi_nodes = 0;
+            const preview::Image exact = preview::render_sphere(f, each);
+            const preview::Image once = preview::render_sphere(f, centroid);
+            const preview::Image table = preview::render_sphere(
+                preview::tabulate_brdf(f, centroid.theta_nodes, centroid.phi_nodes, 2), each);
+            double brightest = 0.0;
+            for (float v : exact.pixels) brightest = std::max(brightest, static_cast<double>(v));
+            const auto largest = [&](const preview::Image& image, const preview::Image& from) {
+                double worst = 0.0;
+                for (std::size_t k = 0; k < image.pixels.size(); ++k)
+                    worst = std::max(worst, std::abs(image.pixels[k] - from.pixels[k]) / brightest);
+                return worst;
+            };
+            const double e_once = largest(once, exact), e_table = largest(table, exact), apart = largest(once, table);
+            std::printf("%2.0f-degree disc at %2.0f degrees, of the brightest pixel: against the exact BRDF at each "
+                        "sample, centroid %.2e, table at each sample %.2e; the two apart %.2e\n",
+                        size, light, e_once, e_table, apart);
+            EXPECT_GT(brightest, 0.1);
+            EXPECT_LT(apart, 1.0 / 255.0) << size << " " << light;
+            EXPECT_LT(e_once, e_table + 0.5 / 255.0) << size << " " << light;
+        }
 }
 
 TEST(WritePreview, WritesA256PixelPng) {
