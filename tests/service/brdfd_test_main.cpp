@@ -13,6 +13,8 @@
 
 #include "cli.h"
 
+#include <leak_check.h>
+
 #include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
@@ -70,9 +72,9 @@ service::JobRunner sleep_runner(const std::string& hook) {
 } // namespace
 
 int main(int argc, char** argv) {
-    return tool::brdfd_main(argc, argv, []() -> service::JobRunner {
+    return tool::after_leak_check(tool::brdfd_main(argc, argv, []() -> service::JobRunner {
         if (const char* hook = std::getenv("BRDFD_TEST_RUNNER"); hook && *hook)
             return sleep_runner(hook);
         return service::run_compute_job;
-    });
+    }));
 }

@@ -3,8 +3,11 @@
 
 #include "cli.h"
 
+#include <leak_check.h>
+
 #include <brdf/service/compute.h>
 
 int main(int argc, char** argv) {
-    return brdf::tool::brdfd_main(argc, argv, [] { return brdf::service::JobRunner(brdf::service::run_compute_job); });
+    return brdf::tool::after_leak_check(brdf::tool::brdfd_main(
+        argc, argv, [] { return brdf::service::JobRunner(brdf::service::run_compute_job); }));
 }

@@ -13,6 +13,7 @@
 #include <brdf/core/log.h>
 #include <brdf/core/version.h>
 
+#include <leak_check.h>
 #include <usage.h>
 
 #include <cstdio>
@@ -47,7 +48,7 @@ std::string help_hint(const CLI::App& root) {
 
 } // namespace
 
-int main(int argc, char** argv) {
+int run_brdftool(int argc, char** argv) {
     using namespace brdf;
     CLI::App app{"brdftool: BRDF tables of real materials from first principles "
                  "(Lorenz-Mie + Ambartsumian's equation)",
@@ -132,3 +133,5 @@ int main(int argc, char** argv) {
         return internal_status;
     }
 }
+
+int main(int argc, char** argv) { return brdf::tool::after_leak_check(run_brdftool(argc, argv)); }

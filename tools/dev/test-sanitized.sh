@@ -4,7 +4,8 @@
 # Build folder: build-asan (BUILD to change), RelWithDebInfo, -DBRDF_SANITIZE=address,undefined.
 # Tests get LSAN_OPTIONS with tools/dev/lsan.supp (OpenCL/PoCL/LLVM leaks) from CMake
 # (cmake/BrdfTesting.cmake); it is exported here as well, so that gtest's test discovery and any
-# binary run by hand see the same suppressions. Exits with ctest's status (CI can call it).
+# binary run by hand see the same suppressions. Exits with ctest's status (CI can call it); a test
+# that failed only by LeakSanitizer's tracer crashing is rerun once first (lsan-tracer-crashes.py).
 # Environment: JOBS (build parallelism, default 1), CTEST_JOBS (default 2), BUILD.
 set -euo pipefail
 
@@ -24,4 +25,12 @@ export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 # unmap". Not a finding in our code; running without the alternate stack avoids it.
 export ASAN_OPTIONS="${ASAN_OPTIONS:-use_sigaltstack=0}"
 cd "$build"
-ctest --output-on-failure -j "${CTEST_JOBS:-2}" "${args[@]}"
+status=0
+ctest --output-on-failure -j "${CTEST_JOBS:-2}" "${args[@]}" || status=$?
+# A test that failed only because LeakSanitizer's own tracer crashed at exit is rerun once (and
+# must pass then); any other failure stands (tools/dev/lsan-tracer-crashes.py).
+if [ "$status" -ne 0 ] && python3 "$root/tools/dev/lsan-tracer-crashes.py" "$build"; then
+  status=0
+  ctest --output-on-failure --rerun-failed || status=$?
+fi
+exit "$status"
