@@ -198,7 +198,7 @@ double Reflection::inside(int k, double mu_air) const {
     return std::sqrt(std::max(0.0, 1.0 - (1.0 - mu_air * mu_air) / (n * n)));
 }
 
-Reflector Reflection::half_space_reflector(int m, std::span<const double> u) const {
+Reflector Reflection::half_space_reflector(int m, std::span<const double> u, bool with_single) const {
     // Nystrom: the equation at (mu_k, u) is linear in r_k = R^m(mu_k, u) once X is known:
     //   (mu_k + u) r_k - (w/2) u (P+ W r)_k - w u mu_k (X W P- W r)_k
     //     = (w/4) [p^m(-mu_k, u) + 2 mu_k (X W p^m(., u))_k],
@@ -226,7 +226,8 @@ Reflector Reflection::half_space_reflector(int m, std::span<const double> u) con
     for (int e = 0; e < ne; ++e)
         for (int i = 0; i < n; ++i) r.en(e, i) = rhs(i, e);
     // (w/4)[p(-u_a, u_b) + 2 u_b (Pu W Rn^T)_ab + 2 u_a (Rn W Pu^T)_ab + 4 u_a u_b (Rn W P- W Rn^T)_ab] / (u_a + u_b)
-    const PhasePair puu = phase_components(beta, m, u, u);
+    // The first term is the single scattering: the one of the four that costs E^2 L.
+    const Matrix single = with_single ? phase_components(beta, m, u, u).minus : Matrix(ne, ne);
     Matrix rnw = r.en, puw = pu.plus;
     for (int e = 0; e < ne; ++e)
         for (int k = 0; k < n; ++k) rnw(e, k) *= s.w[k], puw(e, k) *= s.w[k];
@@ -235,7 +236,7 @@ Reflector Reflection::half_space_reflector(int m, std::span<const double> u) con
     r.ee = Matrix(ne, ne);
     for (int a = 0; a < ne; ++a)
         for (int b = 0; b < ne; ++b) {
-            const double num = puu.minus(a, b) + 2.0 * u[b] * t2(a, b) + 2.0 * u[a] * t2(b, a) + 4.0 * u[a] * u[b] * t4(a, b);
+            const double num = single(a, b) + 2.0 * u[b] * t2(a, b) + 2.0 * u[a] * t2(b, a) + 4.0 * u[a] * u[b] * t4(a, b);
             r.ee(a, b) = 0.25 * om * num / (u[a] + u[b]);
         }
     r.spec.assign(static_cast<std::size_t>(ne), 0.0);
@@ -288,13 +289,13 @@ SmoothInterface Reflection::top_interface(std::span<const double> mu_air) const 
     return f;
 }
 
-Reflector Reflection::below_top(int m, std::span<const double> mu_air) const {
+Reflector Reflection::below_top(int m, std::span<const double> mu_air, bool with_single) const {
     const int nl = static_cast<int>(m_setup.layers.size());
     const int ne = static_cast<int>(mu_air.size());
     std::vector<std::vector<double>> u(static_cast<std::size_t>(nl));
     for (int k = 0; k < nl; ++k)
         for (double mu : mu_air) u[k].push_back(inside(k, mu));
-    Reflector b = m_setup.semi_infinite() ? half_space_reflector(m, u.back())
+    Reflector b = m_setup.semi_infinite() ? half_space_reflector(m, u.back(), with_single)
                                           : substrate_reflector(m, m_setup.layers.back().streams.size(), ne);
     for (int k = nl - 1; k >= 0; --k) {
         const LayerSetup& ls = m_setup.layers[k];
@@ -308,8 +309,8 @@ Reflector Reflection::below_top(int m, std::span<const double> mu_air) const {
     return b;
 }
 
-Reflector Reflection::external(int m, std::span<const double> mu_air) const {
-    Reflector b = below_top(m, mu_air);
+Reflector Reflection::external(int m, std::span<const double> mu_air, bool with_single) const {
+    Reflector b = below_top(m, mu_air, with_single);
     switch (m_setup.stack.top) {
     case Top::None: return b;
     case Top::Smooth: return add_interface(top_interface(mu_air), b, Streams{}, m_setup.layers.front().streams);
@@ -379,9 +380,15 @@ OrderGrid Reflection::order_grid(std::span<const double> mu_air, int threads) co
     for (int k = 0; k < nl; ++k)
         for (double m : mu) factor[k].push_back(path_factor(k, m)), u[k].push_back(inside(k, m));
     grid.orders.resize(static_cast<std::size_t>(m_setup.orders));
+    // One half-space under at most a smooth interface: what the interface makes of the half-space's
+    // single scattering is path_factor(mu_o) path_factor(mu_i) times it (add_interface; the
+    // half-space has no specular part), exactly the term removed below, so it is left out where it
+    // is made instead, saving its phase components (E^2 L per order).
+    const bool single_left_out = tms && nl == 1 && m_setup.semi_infinite() &&
+                                 (m_setup.stack.top == Top::Smooth || m_setup.layers.front().index == 1.0);
     parallel_for(m_setup.orders, threads, [&](int m) {
-        Matrix r = external(m, mu).ee;
-        if (tms)
+        Matrix r = external(m, mu, !single_left_out).ee;
+        if (tms && !single_left_out)
             for (int k = 0; k < nl; ++k) {
                 const LayerSetup& ls = m_setup.layers[k];
                 const double om = ls.truncated.scaled.omega;

@@ -126,15 +126,17 @@ public:
     double inside(int k, double mu_air) const;
 
 private:
-    Reflector half_space_reflector(int m, std::span<const double> u) const;
+    /// `with_single` false: R^m without the first order of scattering between the two
+    /// off-stream cosines (the term order_grid replaces by the exact one: TMS).
+    Reflector half_space_reflector(int m, std::span<const double> u, bool with_single = true) const;
     Reflector substrate_reflector(int m, int n, int e) const;
     LayerOperators layer_operators(int k, int m, std::span<const double> u, bool with_t_ee) const;
     SmoothInterface interface_below(int k, std::span<const double> u) const;
     SmoothInterface top_interface(std::span<const double> mu_air) const;
     /// What layer 1 sees below its top at cosines u (of layer 1) for order m.
-    Reflector below_top(int m, std::span<const double> mu_air) const;
-    /// R^m between air cosines, specular part separate.
-    Reflector external(int m, std::span<const double> mu_air) const;
+    Reflector below_top(int m, std::span<const double> mu_air, bool with_single = true) const;
+    /// R^m between air cosines, specular part separate (`with_single`: half_space_reflector).
+    Reflector external(int m, std::span<const double> mu_air, bool with_single = true) const;
     /// Rough top: the interface, its stream pieces and the body's Z Q per order (constructor).
     void setup_rough();
     /// Rough top: the interface kernels for air cosines `air` (from the family where there is one).
