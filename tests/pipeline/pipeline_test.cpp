@@ -4,6 +4,7 @@
 #include <brdf/material/spec.h>
 #include <brdf/service/compute.h>
 #include <brdf/model/model.h>
+#include <brdf/model/optics.h>
 #include <brdf/model/table_fill.h>
 #include <formats/halfdiff.h>
 #include <formats/table_io.h>
@@ -175,6 +176,31 @@ TEST(PipelineRough, SharedKernelsMatchEachWavelengthSolvedAlone) {
     std::printf("batch against alone: dispersing %.2e, one index %.2e\n", dispersing, one_index);
     EXPECT_LT(dispersing, 0.05 * rte::rough_kernel_tolerance(rs.order_tolerance));
     EXPECT_LT(one_index, 1e-12);
+}
+
+// The stream check's probes, solved at the count it settles on, are kept for the material instead
+// of being solved again in the batch: every sample must be exactly what the batch makes of its
+// stack (each order problem is solved on its own, whatever else is in a batch).
+TEST(PipelineSpectral, SamplesKeptFromTheStreamCheckEqualTheBatchSolve) {
+    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
+        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
+                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
+        "spectrum": "visible"})"), model::Device::Cpu);
+    rte::ReflectionSettings rs;
+    rs.streams = m.settings.streams;
+    rs.order_tolerance = m.settings.order_tolerance;
+    rs.method = m.settings.method;
+    rs.control.tolerance = m.settings.solver_tolerance;
+    std::vector<rte::Stack> stacks;
+    for (const model::WavelengthSolution& s : m.samples) stacks.push_back(model::make_stack(s.optics, m.spec.surface));
+    const std::vector<rte::Reflection> batch = model::solve_stacks(stacks, rs, model::Device::Cpu);
+    const double mus[] = {1.0, 0.6, 0.1};
+    const double phis[] = {0.0, 2.0};
+    for (std::size_t k = 0; k < stacks.size(); ++k) {
+        EXPECT_EQ(m.samples[k].reflection.setup().layers.front().streams.size(), batch[k].setup().layers.front().streams.size());
+        EXPECT_EQ(m.samples[k].reflection.brdf_grid(mus, phis, false), batch[k].brdf_grid(mus, phis, false))
+            << "sample " << k << " (" << m.samples[k].wavelength_nm << " nm)";
+    }
 }
 
 // The table fill's single scattering, shared by a dispersing material's wavelengths (a few index

@@ -77,10 +77,14 @@ double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
     return worst;
 }
 
-// `probe_seconds`: the wall time of the batch that solved the probes at the chosen count.
+// `probe_seconds`: the wall time of the batch that solved the probes at the chosen count. `kept`
+// (one entry per stack) receives the probes' solutions at the chosen count, which are what the
+// batch would make of them: each order problem is solved on its own, whatever else is in the batch.
+// Not under a rough top, where the batch shares one family of interface kernels over all its
+// samples (solve_stacks), which the probes' own family only approximates.
 int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<rte::Stack>& stacks,
                    const rte::ReflectionSettings& rs, const NumericalSettings& st, Device device, double& estimate,
-                   double& probe_seconds) {
+                   double& probe_seconds, std::vector<std::optional<rte::Reflection>>& kept) {
     // The probes of one stream count in one batch (one probe per core).
     const auto solve_probes = [&](const std::vector<std::size_t>& which, int streams) {
         rte::ReflectionSettings at = rs;
@@ -110,9 +114,17 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     int n = st.streams;
     // The larger solve of one round is the smaller one of the next: kept, not solved again.
     std::vector<rte::Reflection> at_n;
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto chosen = [&] {
+        log::debug("streams: ", n, " (estimated error ", estimate, "; the check took ", seconds_since(t0), " s)");
+        kept.assign(stacks.size(), std::nullopt);
+        for (std::size_t p = 0; p < at_n.size(); ++p)
+            if (stacks[probes[p]].top != rte::Top::Rough) kept[probes[p]].emplace(std::move(at_n[p]));
+        return n;
+    };
     for (;;) {
         const int next = std::min(st.max_streams, (3 * n + 1) / 2);
-        if (next <= n) return n; // at the cap: keep the last estimate
+        if (next <= n) return chosen(); // at the cap: keep the last estimate
         estimate = 0.0;
         if (at_n.empty()) std::tie(at_n, probe_seconds) = solve_probes(probes, n);
         auto [at_next, next_seconds] = solve_probes(probes, next);
@@ -122,7 +134,7 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
             // The first batch's time can hold the device's one-off work (PoCL compiles a kernel for
             // its launch on first use: ~2 s on a cold cache); the larger, later solve bounds it.
             probe_seconds = std::min(probe_seconds, next_seconds);
-            return n;
+            return chosen();
         }
         log::info("streams ", n, " -> ", next, ": solutions differ by ", estimate, " (tolerance ", st.tolerance, ")");
         n = next;
@@ -416,7 +428,8 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     // reported error estimate.
     t0 = std::chrono::steady_clock::now();
     double probe_seconds = 0.0;
-    rs.streams = choose_streams(optics, stacks, rs, st, device, out.error_estimate, probe_seconds);
+    std::vector<std::optional<rte::Reflection>> kept;
+    rs.streams = choose_streams(optics, stacks, rs, st, device, out.error_estimate, probe_seconds, kept);
     out.settings.streams = rs.streams;
     if (note) {
         // The probes (at most one per core) took about one sample's solve; the batch solves every
@@ -434,11 +447,15 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
                   out.error_estimate, " > tolerance ", st.tolerance,
                   " (a phase function too peaked for delta-M at this cost; see the report)");
 
-    // 3. Every sample, in one batch.
-    std::vector<rte::Reflection> reflections = solve_stacks(stacks, rs, device, &out.device);
-    for (std::size_t k = 0; k < reflections.size(); ++k) {
-        out.samples.push_back(WavelengthSolution{optics[k].wavelength_nm, weights[k], optics[k],
-                                                 std::move(reflections[k]), std::nullopt});
+    // 3. Every sample the check has not solved at this count already, in one batch.
+    std::vector<rte::Stack> unsolved;
+    for (std::size_t k = 0; k < stacks.size(); ++k)
+        if (!kept[k]) unsolved.push_back(stacks[k]);
+    std::vector<rte::Reflection> reflections = solve_stacks(unsolved, rs, device, &out.device);
+    for (std::size_t k = 0, next = 0; k < stacks.size(); ++k) {
+        rte::Reflection r = kept[k] ? std::move(*kept[k]) : std::move(reflections[next++]);
+        out.samples.push_back(WavelengthSolution{optics[k].wavelength_nm, weights[k], optics[k], std::move(r),
+                                                 std::nullopt});
         if (spec.model == material::Model::Dipole) {
             const LayerOptics& o = optics[k].top();
             const double n = out.samples.back().reflection.setup().layers[0].index;
