@@ -238,6 +238,46 @@ TEST(PipelineTable, SingleScatteringSharedByTheWavelengthsMatchesEachExactly) {
     EXPECT_LT(worst, 1e-6);
 }
 
+// fill_value_from_cosines (the render's rough lobe, at every light sample) is fill_value without
+// the angles: the same BRDF to rounding, with orders, single scattering and a lobe, and for a lobe
+// alone (no orders: no angles at all).
+TEST(PipelineTable, ValueFromCosinesEqualsValueFromAngles) {
+    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
+        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
+                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
+        "spectrum": "visible", "accuracy": "draft"})"), model::Device::Cpu);
+    model::FillInputs body = model::prepare_fill(m);
+    body.lobe = model::FillInputs::Lobe::Ggx;
+    body.lobe_alpha = 0.1;
+    body.lobe_points = 8;
+    body.lobe_fresnel.assign(3 * 8, 0.04);
+    model::FillInputs lobe = body;
+    lobe.orders = 0;
+    lobe.fourier.clear();
+    lobe.samples = 0;
+    ASSERT_GT(body.orders, 0);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> zenith(0.0, 89.9), azimuth(0.0, 180.0);
+    for (const model::FillInputs* in : {&body, &lobe}) {
+        double worst = 0.0, largest = 0.0;
+        for (int k = 0; k < 2000; ++k) {
+            const double ti = zenith(rng) * std::numbers::pi / 180.0, to = zenith(rng) * std::numbers::pi / 180.0;
+            // Near the mirror direction half the time, where the lobe is large.
+            const double phi = k % 2 ? std::numbers::pi - 0.05 * azimuth(rng) / 180.0 : azimuth(rng) * std::numbers::pi / 180.0;
+            const model::Rgb a = model::fill_value(*in, ti, to, phi);
+            const model::Rgb b = model::fill_value_from_cosines(*in, std::cos(ti), std::cos(to), std::cos(phi));
+            for (int c = 0; c < 3; ++c) {
+                worst = std::max(worst, std::abs(a[c] - b[c]) / std::max(a[c], 1e-3));
+                largest = std::max(largest, a[c]);
+            }
+        }
+        std::printf("%s: from cosines against from angles %.2e (largest value %.3g 1/sr)\n",
+                    in == &body ? "body and lobe" : "lobe alone", worst, largest);
+        EXPECT_GT(largest, 1.0); // the lobe was met
+        EXPECT_LT(worst, 1e-12);
+    }
+}
+
 // The fill computes half the phi_d bins and copies each to its mirror phi_d -> pi - phi_d (bin k ->
 // 179 - k), by the isotropy and reciprocity of the BRDF. Each copied cell against the fill's own
 // value at that cell's directions, for a gloss finish (Fourier orders, single scattering and the

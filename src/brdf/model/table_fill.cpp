@@ -459,11 +459,12 @@ Rgb cell_value(const FillInputs& in, const CellDirections& d) {
     if (mu_i <= 0.0 || mu_o <= 0.0) return out;
     const int e = in.grid;
     // Multiply scattered part: interpolate each order, then sum cos(m phi) by the Chebyshev recurrence.
-    const Stencil so = stencil(d.theta_o, e), si = stencil(d.theta_i, e);
     const double c1 = d.cos_phi;
     double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
     const int mp = padded_orders(in.orders);
     constexpr int block = 3 * fill_order_block;
+    Stencil so{}, si{};
+    if (in.orders > 0) so = stencil(d.theta_o, e), si = stencil(d.theta_i, e);
     for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
         double acc[block] = {};
         for (int a = 0; a < 4; ++a)
@@ -505,6 +506,12 @@ CellDirections cell_directions(const formats::Vec3& wi, const formats::Vec3& wo)
 
 Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi) {
     return cell_value(in, {theta_i, theta_o, std::cos(theta_i), std::cos(theta_o), std::cos(phi)});
+}
+
+Rgb fill_value_from_cosines(const FillInputs& in, double mu_i, double mu_o, double cos_phi) {
+    const bool angles = in.orders > 0;
+    return cell_value(in, {angles ? std::acos(std::clamp(mu_i, -1.0, 1.0)) : 0.0,
+                           angles ? std::acos(std::clamp(mu_o, -1.0, 1.0)) : 0.0, mu_i, mu_o, cos_phi});
 }
 
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {

@@ -86,6 +86,10 @@ void for_each_spectral_fill(const SolvedMaterial& material, const std::function<
 
 /// BRDF of one direction triple (radians) from the fill inputs: the per-cell computation.
 Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi);
+/// The same from the cosines of the zenith angles and of the azimuth between the directions: what
+/// the single scattering and a lobe take; only the orders' zenith grid needs the angles (acos, and
+/// none when there are no orders, as for a lobe alone).
+Rgb fill_value_from_cosines(const FillInputs& in, double mu_i, double mu_o, double cos_phi);
 
 /// Every cell, on `threads` CPU threads (the C++ reference of the table-fill kernel).
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads);

@@ -78,8 +78,9 @@ Image render_material(const model::SolvedMaterial& material, RenderOptions optio
         lobe->lobe_points = body->lobe_points;
         lobe->lobe_fresnel = body->lobe_fresnel;
         body->lobe = model::FillInputs::Lobe::None;
-        options.lobe = in_rec709([lobe](double ti, double to, double phi) { return model::fill_value(*lobe, ti, to, phi); },
-                                 space);
+        options.lobe = in_rec709(
+            [lobe](double mu_i, double mu_o, double cos_phi) { return model::fill_value_from_cosines(*lobe, mu_i, mu_o, cos_phi); },
+            space);
         options.lobe_albedo = in_rec709(lobe_albedo(material), space);
         return render_sphere(
             in_rec709([body](double ti, double to, double phi) { return model::fill_value(*body, ti, to, phi); }, space),

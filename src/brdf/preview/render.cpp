@@ -52,6 +52,11 @@ struct Frame {
     }
     /// phi = phi_o - phi_i of direction d (docs/design.md), folded into [0, pi].
     double phi(Vec d) const { return fold_phi(std::atan2(dot(d, t2), dot(d, t1))); }
+    /// cos(phi(d)) without the angle (1 for d along the normal, where atan2 gives phi = 0).
+    double cos_phi(Vec d) const {
+        const double x = dot(d, t1), y = dot(d, t2), h = std::sqrt(x * x + y * y);
+        return h > 0.0 ? std::clamp(x / h, -1.0, 1.0) : 1.0;
+    }
 };
 
 Rgb sky(Vec d, double scale) {
@@ -260,10 +265,9 @@ Image render_sphere(const BrdfFunction& brdf_in, const RenderOptions& o) {
                             centroid = centroid + mu_i * d;
                             if (!o.lobe) continue;
                         }
-                        const double theta_i = safe_acos(mu_i), phi = frame.phi(d);
-                        Rgb f = tabulated ? Rgb{0.0, 0.0, 0.0} : brdf(theta_i, theta_o, phi);
+                        Rgb f = tabulated ? Rgb{0.0, 0.0, 0.0} : brdf(safe_acos(mu_i), theta_o, frame.phi(d));
                         if (o.lobe) {
-                            const Rgb l = o.lobe(theta_i, theta_o, phi);
+                            const Rgb l = o.lobe(mu_i, mu_o, frame.cos_phi(d));
                             for (int c = 0; c < 3; ++c) f[c] += l[c];
                         }
                         for (int c = 0; c < 3; ++c) sum[c] += sub_weight * f[c] * light.irradiance[c] * mu_i;

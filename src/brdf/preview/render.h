@@ -32,6 +32,10 @@ namespace brdf::preview {
 /// BRDF (1/sr) at zenith angles theta_i, theta_o and azimuth phi (radians, docs/design.md conventions).
 /// render_sphere calls it from several threads at once.
 using BrdfFunction = std::function<Rgb(double theta_i, double theta_o, double phi)>;
+/// A BRDF (1/sr) in the cosines of the zenith angles and of the azimuth between the directions:
+/// the rough lobe, evaluated at every light sample, where the angles' trigonometry cost as much as
+/// the lobe itself. Also called from several threads at once.
+using CosineBrdfFunction = std::function<Rgb(double mu_i, double mu_o, double cos_phi)>;
 /// Reflectance of a smooth interface's mirror reflection at incidence theta (radians).
 using MirrorFunction = std::function<Rgb(double theta)>;
 
@@ -66,7 +70,7 @@ struct RenderOptions {
     MirrorFunction mirror;
     /// A rough interface's first-surface lobe (1/sr), never tabulated, and its directional albedo;
     /// both empty when the material has none. The BRDF passed to render_sphere is then the rest.
-    BrdfFunction lobe;
+    CosineBrdfFunction lobe;
     MirrorFunction lobe_albedo;
 
     /// The BRDF is sampled on a grid of theta_nodes x theta_nodes x phi_nodes (cell-centred zenith
@@ -81,7 +85,7 @@ struct RenderOptions {
 /// displayed in (material::rgb_to_rec709_matrix: white stays white). Colours outside Rec.709
 /// (an ACEScg cadmium yellow) get negative channels there, which a display cannot show: they are
 /// clamped to 0. The function itself for Rec.709.
-BrdfFunction in_rec709(BrdfFunction brdf, material::ColorSpace space);
+BrdfFunction in_rec709(BrdfFunction brdf, material::ColorSpace space); // a CosineBrdfFunction too
 /// The same for a mirror reflectance.
 MirrorFunction in_rec709(MirrorFunction mirror, material::ColorSpace space);
 
