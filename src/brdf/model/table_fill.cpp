@@ -349,9 +349,9 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
 
 // The fill inputs of the samples `which` with colour weights `weights` (one per entry of `which`).
 FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::size_t>& which,
-                         const std::vector<Rgb>& weights) {
+                         const std::vector<Rgb>& weights, int zenith_grid = 0) {
     FillInputs in;
-    const int e = material.settings.table_grid;
+    const int e = zenith_grid > 0 ? std::min(zenith_grid, material.settings.table_grid) : material.settings.table_grid;
     in.grid = e;
     for (std::size_t k : which) in.orders = std::max(in.orders, material.samples[k].reflection.orders());
     const int mp = padded_orders(in.orders);
@@ -417,14 +417,14 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
 
 } // namespace
 
-FillInputs prepare_fill(const SolvedMaterial& material) {
+FillInputs prepare_fill(const SolvedMaterial& material, int zenith_grid) {
     std::vector<std::size_t> all(material.samples.size());
     std::vector<Rgb> weights;
     for (std::size_t k = 0; k < all.size(); ++k) {
         all[k] = k;
         weights.push_back(material.samples[k].weight);
     }
-    return assemble_fill(material, all, weights);
+    return assemble_fill(material, all, weights, zenith_grid);
 }
 
 void for_each_spectral_fill(const SolvedMaterial& material, const std::function<void(const SpectralFill&)>& fill) {

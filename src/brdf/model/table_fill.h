@@ -68,7 +68,9 @@ struct FillInputs {
     std::vector<double> lobe_fresnel;
 };
 
-FillInputs prepare_fill(const SolvedMaterial& material);
+/// The fill inputs of every sample with its colour weight, on the material's table grid, or on
+/// `zenith_grid` zenith angles (0..90 degrees) when that is positive and coarser (a preview's).
+FillInputs prepare_fill(const SolvedMaterial& material, int zenith_grid = 0);
 
 /// The fill of up to three solved samples (wavelengths) at once, one in each channel: channel c of
 /// the table filled from `inputs` is the BRDF of material.samples[sample[c]] alone (weight 1, the

@@ -495,6 +495,13 @@ double Reflection::mirror(double mu_i) const {
 
 std::vector<double> Reflection::mirror(std::span<const double> mu_i) const {
     if (m_setup.stack.top != Top::Smooth) return std::vector<double>(mu_i.size(), 0.0);
+    if (m_setup.layers.size() == 1 && m_setup.semi_infinite()) {
+        // A half-space reflects nothing specularly from below (its Reflector's spec is zero), so
+        // the mirror is the interface's own Fresnel reflectance (add_interface: f_e + t^2 0).
+        std::vector<double> out;
+        for (double mu : mu_i) out.push_back(fresnel(clamp_mu(mu), 1.0, m_setup.layers.front().index));
+        return out;
+    }
     // In blocks: external() also builds the BRDF between every two of its cosines, which grows as
     // their square and is not needed here.
     constexpr std::size_t block = 64;
