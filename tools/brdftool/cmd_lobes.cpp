@@ -14,6 +14,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <future>
 #include <memory>
 #include <optional>
 
@@ -42,14 +43,22 @@ int run_lobes(LobesFlags& f) {
     std::optional<Progress> progress(std::in_place, "lobes", std::vector<ProgressStage>{{"solve", 0.8}, {"plot", 0.2}},
                                      &line);
     progress->stage("solve");
+    // The inputs at once: one solve alone leaves a core idle for much of its time (the probes, the
+    // writes of a grid); errors are reported in the order of the inputs.
+    std::vector<std::future<Source>> loading;
+    for (const std::string& input : f.inputs)
+        loading.push_back(std::async(std::launch::async, [&f, input] {
+            Source s = load_source(input, is_spec_file(input) ? f.material : std::string{}, f.device.device());
+            s.use_interpolant(); // thousands of directions per curve
+            return s;
+        }));
     std::vector<Source> sources;
     std::vector<std::string> labels;
-    for (const std::string& input : f.inputs) {
-        sources.push_back(load_source(input, is_spec_file(input) ? f.material : std::string{}, f.device.device()));
-        sources.back().use_interpolant(); // thousands of directions per curve
+    for (std::size_t k = 0; k < loading.size(); ++k) {
+        sources.push_back(loading[k].get());
         progress->advance(static_cast<double>(sources.size()) / static_cast<double>(f.inputs.size()));
         const Source& s = sources.back();
-        labels.push_back(s.model ? s.model->spec.name : std::filesystem::path(input).filename().string());
+        labels.push_back(s.model ? s.model->spec.name : std::filesystem::path(f.inputs[k]).filename().string());
     }
     std::vector<preview::LobeCurve> curves;
     for (std::size_t k = 0; k < sources.size(); ++k)
