@@ -30,6 +30,16 @@ material::MaterialSpec spec_from(const std::string& text) {
 const char* hg_medium = R"({"name": "hg", "medium": {"albedo": [0.99, 0.8, 0.4],
     "phase": {"type": "henyey_greenstein", "g": 0.6}}, "accuracy": "draft"})";
 
+// The seed white (rutile, power law r_eff 0.4 um, v_eff 0.3, 10 % in PMMA) with the spec keys
+// `keys` added (e.g. "spectrum": "visible"), solved by the C++ reference.
+model::SolvedMaterial solve_seed_white(const std::string& keys) {
+    return model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
+        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
+                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}], )" +
+                                           keys + "}"),
+                                 model::Device::Cpu);
+}
+
 TEST(Pipeline, TableCellsMatchTheModelAtTheirBinCentres) {
     const model::SolvedMaterial m = model::solve_material(spec_from(hg_medium), model::Device::Cpu);
     const model::FillInputs in = model::prepare_fill(m);
@@ -182,10 +192,7 @@ TEST(PipelineRough, SharedKernelsMatchEachWavelengthSolvedAlone) {
 // of being solved again in the batch: every sample must be exactly what the batch makes of its
 // stack (each order problem is solved on its own, whatever else is in a batch).
 TEST(PipelineSpectral, SamplesKeptFromTheStreamCheckEqualTheBatchSolve) {
-    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
-        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
-                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
-        "spectrum": "visible"})"), model::Device::Cpu);
+    const model::SolvedMaterial m = solve_seed_white(R"("spectrum": "visible")");
     rte::ReflectionSettings rs;
     rs.streams = m.settings.streams;
     rs.order_tolerance = m.settings.order_tolerance;
@@ -208,10 +215,7 @@ TEST(PipelineSpectral, SamplesKeptFromTheStreamCheckEqualTheBatchSolve) {
 // (Reflection::single_scattering, no tables) summed with its colour weights, in directions off
 // the fill's probe set; relative to the sum with absolute weights, as the fill judges it.
 TEST(PipelineTable, SingleScatteringSharedByTheWavelengthsMatchesEachExactly) {
-    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
-        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
-                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
-        "spectrum": "visible"})"), model::Device::Cpu);
+    const model::SolvedMaterial m = solve_seed_white(R"("spectrum": "visible")");
     model::FillInputs in = model::prepare_fill(m);
     std::printf("%zu wavelengths, %d single-scattering terms\n", m.samples.size(), in.samples);
     EXPECT_GE(in.samples, 3);
@@ -242,10 +246,7 @@ TEST(PipelineTable, SingleScatteringSharedByTheWavelengthsMatchesEachExactly) {
 // the angles: the same BRDF to rounding, with orders, single scattering and a lobe, and for a lobe
 // alone (no orders: no angles at all).
 TEST(PipelineTable, ValueFromCosinesEqualsValueFromAngles) {
-    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
-        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
-                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
-        "spectrum": "visible", "accuracy": "draft"})"), model::Device::Cpu);
+    const model::SolvedMaterial m = solve_seed_white(R"("spectrum": "visible", "accuracy": "draft")");
     model::FillInputs body = model::prepare_fill(m);
     body.lobe = model::FillInputs::Lobe::Ggx;
     body.lobe_alpha = 0.1;
@@ -285,10 +286,7 @@ TEST(PipelineTable, ValueFromCosinesEqualsValueFromAngles) {
 // (88.1 degrees, 0.01 1/sr: the limb under a grazing light); the seed's 512 x 512 PNG moved by
 // one 8-bit step at 0.3 % of its pixels.
 TEST(PipelineTable, PreviewGridAgreesWithTheTableGridAtTheRenderNodes) {
-    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
-        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
-                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
-        "spectrum": "visible"})"), model::Device::Cpu);
+    const model::SolvedMaterial m = solve_seed_white(R"("spectrum": "visible")");
     const model::FillInputs table = model::prepare_fill(m), preview = model::prepare_fill(m, 46);
     ASSERT_EQ(table.grid, 91);
     ASSERT_EQ(preview.grid, 46);
@@ -317,10 +315,7 @@ TEST(PipelineTable, PreviewGridAgreesWithTheTableGridAtTheRenderNodes) {
 // value at that cell's directions, for a gloss finish (Fourier orders, single scattering and the
 // microfacet lobe all in play); every cell has data exactly where it lies above the horizon.
 TEST(PipelineTable, MirroredHalfEqualsTheDirectFill) {
-    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
-        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
-                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
-        "surface": "gloss", "spectrum": "rgb", "accuracy": "draft"})"), model::Device::Cpu);
+    const model::SolvedMaterial m = solve_seed_white(R"("surface": "gloss", "spectrum": "rgb", "accuracy": "draft")");
     const model::FillInputs in = model::prepare_fill(m);
     ASSERT_NE(in.lobe, model::FillInputs::Lobe::None);
     const formats::BrdfTable table = model::fill_table_cpu(in, 2);
@@ -367,11 +362,7 @@ TEST(Pipeline, WhiteFurnaceTableConservesEnergy) {
 
 TEST(Pipeline, MirrorPlusDiffuseIsOneForARealWhitePaint) {
     // Rutile in acrylic absorbs nothing: all light comes back, split between the mirror and the body.
-    const model::SolvedMaterial m = model::solve_material(spec_from(R"({"name": "w", "binder": {"material": "pmma"},
-        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
-                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}],
-        "spectrum": "rgb", "accuracy": "draft"})"),
-                                                              model::Device::Cpu);
+    const model::SolvedMaterial m = solve_seed_white(R"("spectrum": "rgb", "accuracy": "draft")");
     for (double deg : {0.0, 40.0, 75.0}) {
         const auto a = m.albedo(deg * std::numbers::pi / 180.0), r = m.mirror(deg * std::numbers::pi / 180.0);
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c] + r[c], 1.0, 1e-9);
