@@ -66,6 +66,35 @@ TEST(StreamChoice, ChosenStreamsMeetTheToleranceForAForwardPeakedMedium) {
     }
 }
 
+// Where the start count is enough, the check confirms it from below (3/4 of it) and never solves
+// 1.5 times as many streams, and the count it keeps still meets the tolerance against a fine solve;
+// where the start is not enough (HG 0.85 at "draft" needs more), it goes on up from there.
+TEST(StreamChoice, AStartCountThatIsEnoughIsConfirmedFromBelow) {
+    const auto spec = spec_of(R"({"medium": {"albedo": 0.99, "phase": {"type": "henyey_greenstein", "g": 0.5}},
+                                  "spectrum": "rgb"})", "reference");
+    const model::SolvedMaterial chosen = model::solve_material(spec, model::Device::Cpu);
+    const int start = model::settings_for(spec.accuracy.tolerance).streams;
+    EXPECT_EQ(chosen.checked_streams, (std::vector<int>{3 * start / 4, start}));
+    EXPECT_EQ(chosen.settings.streams, start);
+    ASSERT_LE(chosen.error_estimate, chosen.settings.tolerance);
+
+    model::NumericalSettings fine = model::settings_for(spec.accuracy.tolerance);
+    fine.streams = fine.max_streams = 2 * start + 16;
+    fine.solver_tolerance = 1e-12;
+    fine.order_tolerance = 1e-2 * spec.accuracy.tolerance;
+    const double worst = worst_difference(chosen, model::solve_material(spec, model::Device::Cpu, fine));
+    std::printf("%d streams confirmed by %d, estimate %.2e, against %d streams %.2e\n", start, 3 * start / 4,
+                chosen.error_estimate, fine.streams, worst);
+    EXPECT_LE(worst, spec.accuracy.tolerance);
+
+    const auto peaked = spec_of(R"({"medium": {"albedo": 0.98, "phase": {"type": "henyey_greenstein", "g": 0.85}}})",
+                                "draft");
+    const model::SolvedMaterial grown = model::solve_material(peaked, model::Device::Cpu);
+    ASSERT_GE(grown.checked_streams.size(), 3u);
+    EXPECT_EQ(grown.checked_streams[0], 3 * model::settings_for(peaked.accuracy.tolerance).streams / 4);
+    EXPECT_GT(grown.checked_streams.back(), grown.settings.streams); // confirmed from above
+}
+
 TEST(StreamChoice, SettingsTightenWithTheTolerance) {
     const double tolerances[] = {3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 1e-6, 1e-7};
     model::NumericalSettings previous = model::settings_for(tolerances[0]);

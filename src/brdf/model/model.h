@@ -57,9 +57,12 @@ struct SolvedMaterial {
     std::vector<WavelengthSolution> samples;
     std::string device; ///< "opencl: DEVICE NAME" or "cpu"
     std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
-    /// Relative BRDF difference between the chosen stream count and the next larger one on the
-    /// hardest wavelengths: the error estimate of the solve (0 when not checked).
+    /// Relative BRDF difference between the chosen stream count and the last one checked against
+    /// it on the hardest wavelengths (3/4 of it, or 1.5 times as many): the error estimate of the
+    /// solve (0 when not checked).
     double error_estimate = 0.0;
+    /// The stream counts the convergence check solved its probes at, in order.
+    std::vector<int> checked_streams;
     double gamut_scale = 1.0; ///< chroma factor applied by fit_into_gamut (1: colour already in gamut)
     /// True when the chroma scaling alone could not bring the colour into the space and the
     /// outputs clamp what is left (material::GamutFit::clipped).

@@ -101,9 +101,11 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
           {"solved_tolerance", m.settings.tolerance},
           {"solver_estimate", m.error_estimate},
           {"tolerance_met", m.error_estimate <= m.settings.tolerance},
+          {"checked_streams", m.checked_streams},
           {"note", "solver_estimate: relative BRDF difference between the chosen stream count and "
-                   "1.5 times as many on the hardest wavelengths (docs/quadrature-study.md); tables "
-                   "add their binning error"}}},
+                   "the last count checked against it (3/4 of it, or 1.5 times as many) on the "
+                   "hardest wavelengths (docs/quadrature-study.md); checked_streams: the counts "
+                   "solved, in order; tables add their binning error"}}},
         {"wavelengths", samples},
         {"wavelengths_interpolated", m.wavelengths_interpolated},
         {"colorspace", std::string(material::to_string(m.spec.colorspace))},
