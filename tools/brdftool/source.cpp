@@ -92,11 +92,11 @@ std::string recorded_material(const std::filesystem::path& table_path, const for
     return name_in(nlohmann::json::parse(in, nullptr, false));
 }
 
-void Source::use_interpolant() {
+void Source::use_interpolant(int zenith_grid) {
     if (!model || interpolant) return;
     for (const model::WavelengthSolution& s : model->samples)
         if (s.dipole) return;
-    interpolant = model::prepare_fill(*model);
+    interpolant = model::prepare_fill(*model, zenith_grid);
 }
 
 model::Rgb Source::brdf(double theta_i, double theta_o, double phi) const {

@@ -45,9 +45,10 @@ struct Source {
     std::optional<model::FillInputs> interpolant;
 
     /// For commands that evaluate many directions (eval, lobes): a spec's brdf() through the
-    /// interpolant, whose values are the tables' at the cell centres. A dipole model keeps its
+    /// interpolant, whose values are the tables' at the cell centres. `zenith_grid`: the Fourier
+    /// grid's zenith angles, 0 for the tables' own (model::prepare_fill). A dipole model keeps its
     /// exact evaluation (its tables come from the same interpolant of the transport solution).
-    void use_interpolant();
+    void use_interpolant(int zenith_grid = 0);
     /// BRDF (1/sr) at angles in radians.
     model::Rgb brdf(double theta_i, double theta_o, double phi) const;
     /// The colour space of brdf() and albedo(): the spec's, the table's (brdf.colorspace, or the

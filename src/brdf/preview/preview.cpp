@@ -40,13 +40,10 @@ MirrorFunction lobe_albedo(const model::SolvedMaterial& m) {
 
 // The Fourier grid of the body's interpolant for a tabulated render. The render samples the body
 // on cell-centred zenith angles 90 / theta_nodes degrees apart (3.75 at the default 24) and
-// interpolates trilinearly; the draft tables' grid, 46 zenith angles 2 degrees apart, is finer
-// than that at a third of the cost of the table's 91: at the render's nodes within 3.2e-4 of it
-// below 88 degrees and 5.5e-3 at the grazing corner (PipelineTable.PreviewGridAgreesWithTheTable-
-// GridAtTheRenderNodes). A finer render grid, or a render that evaluates the body at every sample
-// (theta_nodes 0), keeps the table's grid.
+// interpolates trilinearly: preview_zenith_grid (2 degrees apart) is finer than that. A finer
+// render grid, or a render that evaluates the body at every sample (theta_nodes 0), keeps the
+// table's grid.
 int body_grid(const RenderOptions& options) {
-    constexpr int preview_zenith_grid = 46;
     return options.theta_nodes > 0 && options.theta_nodes <= 24 ? preview_zenith_grid : 0;
 }
 
