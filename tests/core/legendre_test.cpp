@@ -47,6 +47,23 @@ TEST(Legendre, SeriesMatchesDirectSum) {
     }
 }
 
+// The batched series (blocks of points) is the scalar Clenshaw sum bit for bit, at a Mie-like
+// degree (3000 terms, beta_l = (2l + 1) g^l of HG g = 0.999), at point counts around the block
+// size, including both ends of [-1, 1].
+TEST(Legendre, BatchedSeriesEqualsTheScalarSumBitForBit) {
+    std::vector<double> beta(3000);
+    for (std::size_t l = 0; l < beta.size(); ++l) beta[l] = (2.0 * l + 1.0) * std::pow(0.999, static_cast<double>(l));
+    for (std::size_t count : {1u, 255u, 256u, 257u, 1000u}) {
+        std::vector<double> x(count), out(count, -7.0);
+        for (std::size_t k = 0; k < count; ++k) x[k] = count == 1 ? 1.0 : -1.0 + 2.0 * k / (count - 1);
+        legendre_series(beta, x, out);
+        for (std::size_t k = 0; k < count; ++k) ASSERT_EQ(out[k], legendre_series(beta, x[k])) << count << " " << k;
+    }
+    std::vector<double> too_few(1);
+    const std::vector<double> two = {0.0, 0.5};
+    EXPECT_THROW(legendre_series(beta, two, too_few), InternalError);
+}
+
 TEST(Linalg, LuSolvesAndRejectsSingular) {
     Matrix a(3, 3);
     const double v[9] = {0, 2, 1, 1, 1, 1, 4, 0, 3}; // needs pivoting (a_00 = 0)

@@ -71,4 +71,31 @@ double legendre_series(std::span<const double> beta, double x) {
     return b1;
 }
 
+void legendre_series(std::span<const double> beta, std::span<const double> x, std::span<double> out) {
+    if (out.size() < x.size())
+        throw InternalError(cat("legendre_series: ", out.size(), " outputs for ", x.size(), " points"));
+    // Points in blocks whose two recurrence rows stay in the L1 cache; per point the operations of
+    // the scalar Clenshaw sum above, in its order.
+    constexpr std::size_t block = 256;
+    double b1[block], b2[block];
+    for (std::size_t first = 0; first < x.size(); first += block) {
+        const std::size_t count = std::min(block, x.size() - first);
+        const double* xs = x.data() + first;
+        std::fill(b1, b1 + count, 0.0);
+        std::fill(b2, b2 + count, 0.0);
+        for (std::size_t i = beta.size(); i-- > 0;) {
+            const double l = static_cast<double>(i);
+            const double a = (2.0 * l + 1.0) / (l + 1.0);
+            const double betac = (l + 1.0) / (l + 2.0);
+            const double bl = beta[i];
+            for (std::size_t k = 0; k < count; ++k) {
+                const double b0 = bl + a * xs[k] * b1[k] - betac * b2[k];
+                b2[k] = b1[k];
+                b1[k] = b0;
+            }
+        }
+        std::copy(b1, b1 + count, out.begin() + static_cast<std::ptrdiff_t>(first));
+    }
+}
+
 } // namespace brdf

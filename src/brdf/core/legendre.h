@@ -24,4 +24,9 @@ void legendre_polynomials(int lmax, double x, std::span<double> out);
 /// sum_l beta_l P_l(x): a phase function from its Legendre coefficients (Clenshaw summation).
 double legendre_series(std::span<const double> beta, double x);
 
+/// The same at every x[k] into out[k] (out.size() >= x.size()), bit for bit the scalar sums: the
+/// recurrence's coefficients once per degree for a block of points instead of two divisions per
+/// degree and point (a Mie phase function at size parameter 1000 has thousands of degrees).
+void legendre_series(std::span<const double> beta, std::span<const double> x, std::span<double> out);
+
 } // namespace brdf

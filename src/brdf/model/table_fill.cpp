@@ -394,11 +394,14 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
         for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer) {
             const rte::Reflection::ScatteringLayer l = r.scattering_layer(layer);
             SingleScatteringTerm t{l.index, l.tau, layer == 0, weights[j], {}, {}};
-            t.phase.resize(phase_table_points);
+            std::vector<double> cos_theta(phase_table_points);
             for (int p = 0; p < phase_table_points; ++p) { // u_p = 2 (p - 1) / intervals - 1
                 const double u = 2.0 * (p - 1) / phase_table_intervals - 1.0;
-                t.phase[p] = 0.25 * l.albedo * rte::phase_value(*l.beta, -u * std::sqrt(2.0 - u * u)); // cos(Theta)
+                cos_theta[p] = -u * std::sqrt(2.0 - u * u);
             }
+            t.phase.resize(phase_table_points);
+            rte::phase_values(*l.beta, cos_theta, t.phase); // all points at once: thousands of degrees for big spheres
+            for (double& v : t.phase) v *= 0.25 * l.albedo;
             t.transmission.resize(fresnel_table_points);
             for (int p = 1; p + 1 < fresnel_table_points; ++p) // mu_p = (p - 1) / intervals
                 t.transmission[p] =

@@ -8,6 +8,10 @@ namespace brdf::rte {
 
 double phase_value(std::span<const double> beta, double cos_theta) { return legendre_series(beta, cos_theta); }
 
+void phase_values(std::span<const double> beta, std::span<const double> cos_theta, std::span<double> out) {
+    legendre_series(beta, cos_theta, out);
+}
+
 DeltaM delta_m(const Medium& medium, int first_dropped) {
     const int size = static_cast<int>(medium.beta.size());
     if (first_dropped < 1) throw InputError(cat("delta-M: truncation order must be >= 1 (got ", first_dropped, ")"));

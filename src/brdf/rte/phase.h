@@ -21,6 +21,8 @@ struct Medium {
 
 /// Phase-function value p(cos T) from its Legendre series.
 double phase_value(std::span<const double> beta, double cos_theta);
+/// The same at every cosine into out (legendre_series for a block of points: the same values).
+void phase_values(std::span<const double> beta, std::span<const double> cos_theta, std::span<double> out);
 
 struct DeltaM {
     Medium scaled;   ///< omega' and beta' with beta'_l = 0 for l >= L
