@@ -240,13 +240,15 @@ void expect_channels_are_single_wavelength_solves(const char* text) {
     for (std::size_t j = 0; j < samples.size(); ++j) {
         const double lambda = samples[j]["wavelength_nm"];
         EXPECT_EQ(run->spectral.wavelengths_nm[j], lambda);
-        // The same spec at this wavelength alone, with the material's stream count (the
-        // convergence check would pick its own from other probes).
+        // The same spec at this wavelength alone, with the material's stream count and Fourier
+        // orders (the convergence check and the order fit would pick their own from other probes).
         nlohmann::json one = nlohmann::json::parse(text);
         one["spectrum"] = {{"wavelengths_nm", {lambda}}};
         const auto spec = material::parse_specs_text(one.dump(), "one.json").at(0);
         model::NumericalSettings settings = model::settings_for(spec.accuracy.tolerance);
         settings.streams = settings.max_streams = streams;
+        settings.fit_orders = false; // the material's orders, fitted to its own probes
+        settings.max_orders = run->report["solver"]["max_fourier_orders"];
         const model::SolvedMaterial single = model::solve_material(spec, model::Device::Cpu, settings);
         ASSERT_EQ(single.samples.size(), 1u);
         const model::FillInputs in = model::prepare_fill(single);

@@ -196,6 +196,7 @@ TEST(PipelineSpectral, SamplesKeptFromTheStreamCheckEqualTheBatchSolve) {
     rte::ReflectionSettings rs;
     rs.streams = m.settings.streams;
     rs.order_tolerance = m.settings.order_tolerance;
+    rs.max_orders = m.samples.front().reflection.orders(); // fitted to the probes (reflection_orders)
     rs.method = m.settings.method;
     rs.control.tolerance = m.settings.solver_tolerance;
     std::vector<rte::Stack> stacks;

@@ -43,7 +43,7 @@ StackSetup setup_reflection(const Medium& medium, const Interface& interface, co
 }
 
 StackSetup setup_reflection(const Stack& stack, const ReflectionSettings& settings) {
-    return setup_stack(stack, StackSettings{settings.streams, settings.order_tolerance});
+    return setup_stack(stack, StackSettings{settings.streams, settings.order_tolerance, settings.max_orders});
 }
 
 std::vector<OrderProblem> order_problems(const StackSetup& setup) { return half_space_problems(setup); }
@@ -133,6 +133,16 @@ Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space,
         m_minus_w.push_back(std::move(minus_w));
     }
     setup_rough();
+}
+
+Reflection Reflection::with_orders(int orders) const {
+    if (orders < 1 || orders > m_setup.orders)
+        throw InternalError(cat("reflection: ", orders, " orders asked of a reflection with ", m_setup.orders));
+    StackSetup setup = m_setup;
+    setup.orders = orders;
+    std::vector<OrderSolution> half;
+    if (!m_half.empty()) half.assign(m_half.begin(), m_half.begin() + orders);
+    return Reflection(std::move(setup), std::move(half), m_family);
 }
 
 void Reflection::setup_rough() {

@@ -31,6 +31,9 @@ namespace brdf::rte {
 struct ReflectionSettings {
     int streams = 32;              ///< Gauss nodes in mu on (0, 1)
     double order_tolerance = 1e-5; ///< drop Fourier orders whose phase component is below this
+    /// At most this many Fourier orders (0: what the phase functions need); solve_material sets it
+    /// from what the reflection of its probes needs (model::reflection_orders).
+    int max_orders = 0;
     Method method = Method::Fast;
     SolveControl control;
 };
@@ -68,6 +71,10 @@ public:
     /// kernels are computed for this stack alone.
     Reflection(StackSetup setup, std::vector<OrderSolution> half_space,
                std::shared_ptr<const RoughKernelFamily> family = nullptr);
+
+    /// The same reflection with only its first `orders` Fourier orders (1 <= orders <= orders()):
+    /// setup and solutions cut, the per-order operators built again.
+    Reflection with_orders(int orders) const;
 
     const StackSetup& setup() const { return m_setup; }
     /// The Ambartsumian solutions of the semi-infinite layer (empty for a film).

@@ -202,6 +202,7 @@ StackSetup setup_stack(const Stack& stack, const StackSettings& settings) {
         if (specular_inside)
             out.orders = std::max(out.orders, rough_transmission_orders(rough, settings.order_tolerance, 512));
     }
+    if (settings.max_orders > 0) out.orders = std::min(out.orders, settings.max_orders);
     return out;
 }
 

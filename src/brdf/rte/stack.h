@@ -46,6 +46,7 @@ Stack half_space(const Medium& medium, double n = 1.0);
 struct StackSettings {
     int streams = 32;              ///< nodes per hemisphere of the top layer (half per piece when split)
     double order_tolerance = 1e-5; ///< drop Fourier orders whose phase component is below this
+    int max_orders = 0;            ///< at most this many Fourier orders (0: what the phase functions need)
 };
 
 /// One Gauss piece of n sin(theta), shared by the media that contain it.
