@@ -97,8 +97,9 @@ TEST(StreamChoice, AStartCountThatIsEnoughIsConfirmedFromBelow) {
 
 // The Fourier orders solve_material keeps (those its probes reflect, model::reflection_orders)
 // against every order the phase functions carry: far fewer orders, the same BRDF within a tenth of
-// the tolerance, for an HG half-space at 1e-6, the seed white (smooth, visible) and the seed's
-// pigment as a 25 um film over black (two-sided, a slab instead of the half-space).
+// the tolerance, for an HG half-space at 1e-6, the seed white (smooth), the seed's pigment as a
+// 25 um film over black (a slab instead of the half-space) and under a gloss finish (the body
+// under a rough top, its single scattering among the orders; the exact lobe left out).
 TEST(StreamChoice, FittedOrdersAgreeWithEveryOrderOfThePhaseFunction) {
     const char* seed_pigment = R"("binder": {"material": "pmma"}, "spectrum": "rgb",
         "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
@@ -111,6 +112,7 @@ TEST(StreamChoice, FittedOrdersAgreeWithEveryOrderOfThePhaseFunction) {
          "reference"},
         {std::string("{") + seed_pigment + "}", "default"},
         {std::string("{") + seed_pigment + R"(, "thickness_um": 25, "substrate": {"albedo": 0.0}})", "default"},
+        {std::string("{") + seed_pigment + R"(, "surface": "gloss"})", "default"},
     };
     for (const auto& c : cases) {
         SCOPED_TRACE(c.json);

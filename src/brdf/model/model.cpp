@@ -77,6 +77,13 @@ double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
     return worst;
 }
 
+// The Fourier orders of the probes at the chosen count: those their phase functions carry, and
+// those their reflection needs at `threshold` (reflection_orders; none when `threshold` is 0).
+struct ProbeOrders {
+    double threshold = 0.0;
+    int carried = 0, needed = 0;
+};
+
 // `checked` receives the stream counts solved, in order. `probe_seconds`: the wall time of the
 // batch that solved the probes at the chosen count. `kept` (one entry per stack) receives the
 // probes' solutions at the chosen count, which are what the batch would make of them: each order
@@ -86,7 +93,7 @@ double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
 int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<rte::Stack>& stacks,
                    const rte::ReflectionSettings& rs, const NumericalSettings& st, Device device, double& estimate,
                    double& probe_seconds, std::vector<std::optional<rte::Reflection>>& kept,
-                   std::vector<int>& checked) {
+                   std::vector<int>& checked, ProbeOrders& orders) {
     // The probes of one stream count in one batch (one probe per core).
     const auto solve_probes = [&](const std::vector<std::size_t>& which, int streams) {
         rte::ReflectionSettings at = rs;
@@ -119,6 +126,10 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     const auto t0 = std::chrono::steady_clock::now();
     const auto chosen = [&] {
         log::debug("streams: ", n, " (estimated error ", estimate, "; the check took ", seconds_since(t0), " s)");
+        for (const rte::Reflection& r : at_n) {
+            orders.carried = std::max(orders.carried, r.orders());
+            if (orders.threshold > 0.0) orders.needed = std::max(orders.needed, reflection_orders(r, orders.threshold));
+        }
         kept.assign(stacks.size(), std::nullopt);
         for (std::size_t p = 0; p < at_n.size(); ++p)
             if (stacks[probes[p]].top != rte::Top::Rough) kept[probes[p]].emplace(std::move(at_n[p]));
@@ -468,8 +479,10 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     t0 = std::chrono::steady_clock::now();
     double probe_seconds = 0.0;
     std::vector<std::optional<rte::Reflection>> kept;
+    ProbeOrders orders;
+    if (st.fit_orders) orders.threshold = 0.1 * st.order_tolerance;
     rs.streams = choose_streams(optics, stacks, rs, st, device, out.error_estimate, probe_seconds, kept,
-                                out.checked_streams);
+                                out.checked_streams, orders);
     out.settings.streams = rs.streams;
     if (note) {
         // The probes (at most one per core) took about one sample's solve; the batch solves every
@@ -484,21 +497,14 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     }
     // 2b. Fourier orders: what the probes (the most peaked and the brightest samples) reflect, at a
     // tenth of the order tolerance, rather than every order their phase functions carry (HG g 0.5:
-    // 14 of 24 at 1e-6). The probes' own solutions are cut to that; the batch solves no more.
-    if (st.fit_orders) {
-        int carried = 0, needed = 0;
-        for (const auto& r : kept)
-            if (r) {
-                carried = std::max(carried, r->orders());
-                needed = std::max(needed, reflection_orders(*r, 0.1 * st.order_tolerance));
-            }
-        if (st.max_orders > 0) needed = std::min(needed, st.max_orders);
-        if (needed > 0 && needed < carried) {
-            log::debug("Fourier orders: ", needed, " of the ", carried, " the phase functions carry");
-            rs.max_orders = needed;
-            for (auto& r : kept)
-                if (r && r->orders() > needed) r = r->with_orders(needed);
-        }
+    // 16 of 24 at 1e-6). The probes' own solutions are cut to that; the batch solves no more.
+    int needed = orders.needed;
+    if (st.max_orders > 0 && needed > 0) needed = std::min(needed, st.max_orders);
+    if (needed > 0 && needed < orders.carried) {
+        log::debug("Fourier orders: ", needed, " of the ", orders.carried, " the phase functions carry");
+        rs.max_orders = needed;
+        for (auto& r : kept)
+            if (r && r->orders() > needed) r = r->with_orders(needed);
     }
     if (out.error_estimate > st.tolerance)
         log::warn(spec.name, ": accuracy not reached at the stream cap (", st.max_streams, "): estimated error ",

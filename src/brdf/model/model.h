@@ -33,7 +33,7 @@ struct NumericalSettings {
     rte::Method method = rte::Method::Fast;
     bool select_wavelengths = true; ///< solve only the wavelengths select_wavelengths() keeps
     /// Solve only the Fourier orders the stream check's probes reflect (reflection_orders), not
-    /// every order their phase functions carry. Not under a rough top.
+    /// every order their phase functions carry.
     bool fit_orders = true;
     int max_orders = 0; ///< at most this many Fourier orders (0: no cap; rte::ReflectionSettings)
     double note_after_seconds = 10.0; ///< solve_material's `note` for an expected time above this
@@ -103,7 +103,8 @@ SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, 
 /// `threshold` of the azimuthal mean R^0 at some pair of the probe directions (the stream check's
 /// zenith angles, 0 to 89.5 degrees). The orders carry only what is not single scattered on a direct
 /// path (that is exact per direction: TMS), which is far smoother in azimuth than the phase
-/// function: its terms fall off long before the phase function's components do.
+/// function: its terms fall off long before the phase function's components do. Under a rough top
+/// they carry the body's single scattering too, spread in azimuth by the rough refraction.
 int reflection_orders(const rte::Reflection& reflection, double threshold);
 
 /// The optics of a spec ready to solve: per solved wavelength (or colour channel) every layer, with
