@@ -142,8 +142,8 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     // (1 - 1.5^-p) err(n): equal for p = 1, and the check from below the more cautious for every
     // faster convergence. Otherwise the check goes up from n as before. Solved first, the smaller
     // batch also takes the device's one-off work (PoCL compiles a kernel on its first launch) out
-    // of probe_seconds.
-    if (const int below = 3 * n / 4; below >= 2) {
+    // of probe_seconds. A count pinned at the cap (streams = max_streams) is not checked.
+    if (const int below = 3 * n / 4; below >= 2 && n < st.max_streams) {
         const std::vector<rte::Reflection> at_below = solve_probes(probes, below).first;
         std::tie(at_n, probe_seconds) = solve_probes(probes, n);
         checked = {below, n};

@@ -15,7 +15,8 @@ namespace brdf::preview {
 /// from: the draft tables' grid, 2 degrees apart, at about a third of the cost of the default
 /// tables' 91. At the render's nodes it is within 3.2e-4 of the table grid below 88 degrees and
 /// 5.5e-3 at the grazing corner (PipelineTable.PreviewGridAgreesWithTheTableGridAtTheRenderNodes);
-/// a lobe plot's curves within a pixel (PipelineTable.LobesFromThePreviewGridMatchTheTableGrid).
+/// a lobe plot's curves within 1.4e-4 of their peak below 88 degrees
+/// (PipelineTable.LobesFromThePreviewGridMatchTheTableGrid).
 inline constexpr int preview_zenith_grid = 46;
 
 /// render_sphere of the material's BRDF with `options`: with surface "smooth" its mirror, with a
