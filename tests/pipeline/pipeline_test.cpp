@@ -6,6 +6,7 @@
 #include <brdf/model/model.h>
 #include <brdf/model/optics.h>
 #include <brdf/model/table_fill.h>
+#include <brdf/preview/preview.h>
 #include <formats/halfdiff.h>
 #include <formats/table_io.h>
 #include <test_support.h>
@@ -288,9 +289,10 @@ TEST(PipelineTable, ValueFromCosinesEqualsValueFromAngles) {
 // one 8-bit step at 0.3 % of its pixels.
 TEST(PipelineTable, PreviewGridAgreesWithTheTableGridAtTheRenderNodes) {
     const model::SolvedMaterial m = solve_seed_white(R"("spectrum": "visible")");
-    const model::FillInputs table = model::prepare_fill(m), preview = model::prepare_fill(m, 46);
+    const model::FillInputs table = model::prepare_fill(m);
+    const model::FillInputs coarse = model::prepare_fill(m, preview::preview_zenith_grid);
     ASSERT_EQ(table.grid, 91);
-    ASSERT_EQ(preview.grid, 46);
+    ASSERT_EQ(coarse.grid, 46);
     constexpr int nt = 24, np = 13;
     const double step = 0.5 * std::numbers::pi / nt;
     double worst = 0.0, worst_inside = 0.0; // all nodes; all but the last zenith node, 88.1 degrees
@@ -298,7 +300,7 @@ TEST(PipelineTable, PreviewGridAgreesWithTheTableGridAtTheRenderNodes) {
         for (int o = 0; o < nt; ++o)
             for (int p = 0; p < np; ++p) {
                 const double ti = (i + 0.5) * step, to = (o + 0.5) * step, phi = std::numbers::pi * p / (np - 1);
-                const model::Rgb a = model::fill_value(table, ti, to, phi), b = model::fill_value(preview, ti, to, phi);
+                const model::Rgb a = model::fill_value(table, ti, to, phi), b = model::fill_value(coarse, ti, to, phi);
                 for (int c = 0; c < 3; ++c) {
                     const double d = std::abs(a[c] - b[c]) / a[c];
                     worst = std::max(worst, d);
@@ -321,14 +323,15 @@ TEST(PipelineTable, LobesFromThePreviewGridMatchTheTableGrid) {
     for (const char* keys : {R"("spectrum": "visible")", R"("surface": "gloss", "spectrum": "rgb")"}) {
         SCOPED_TRACE(keys);
         const model::SolvedMaterial m = solve_seed_white(keys);
-        const model::FillInputs table = model::prepare_fill(m), preview = model::prepare_fill(m, 46);
+        const model::FillInputs table = model::prepare_fill(m);
+    const model::FillInputs coarse = model::prepare_fill(m, preview::preview_zenith_grid);
         ASSERT_EQ(table.grid, 91);
         for (double theta_i : {30.0, 60.0}) {
             double peak = 0.0, worst = 0.0, worst_below_88 = 0.0;
             for (int k = 1; k < 180; ++k)
                 for (double phi : {0.0, std::numbers::pi}) {
                     const double ti = theta_i * std::numbers::pi / 180.0, to = 0.5 * k * std::numbers::pi / 180.0;
-                    const model::Rgb a = model::fill_value(table, ti, to, phi), b = model::fill_value(preview, ti, to, phi);
+                    const model::Rgb a = model::fill_value(table, ti, to, phi), b = model::fill_value(coarse, ti, to, phi);
                     for (int c = 0; c < 3; ++c) {
                         peak = std::max(peak, a[c]);
                         worst = std::max(worst, std::abs(a[c] - b[c]));
