@@ -141,7 +141,10 @@ def main():
     # the seed also runs with the kernels of the CPU's family forced, alternating with the default.
     seed = spec(work, "seed", SEED)
     core = blas_core(tool)
-    flags = open("/proc/cpuinfo").read() if os.path.exists("/proc/cpuinfo") else ""
+    flags = ""
+    if os.path.exists("/proc/cpuinfo"):
+        with open("/proc/cpuinfo") as f:
+            flags = f.read()
     forced = None
     if core == "Prescott" and (" avx512f" in flags or " avx2" in flags):
         forced = "SkylakeX" if " avx512f" in flags else "Haswell"
