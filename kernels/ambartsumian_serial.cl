@@ -23,30 +23,62 @@ typedef __global double* gptr;
 typedef __global const double* gcptr;
 
 // c (ld ldc) = a (ld lda) b (ld ldb), all n x n: brdf::operator* (i-k-j, zero a_ik skipped).
-// Sixteen columns of row i stay in registers through the k loop instead of going to memory and
-// back at every k (the loop's cost on a CPU device: it ran at a load and a store per multiply-add);
-// each element is still 0 + a_i0 b_0j + a_i1 b_1j + ... in k order, so the result is the same.
+// Two rows of c and 32 of their columns stay in registers through the k loop: four independent
+// sums, where one row's 16 columns waited on the latency of each add (a CPU device ran the loop at
+// one add per latency); each b load serves both rows. Each element is still 0 + a_i0 b_0j +
+// a_i1 b_1j + ... in k order with the zero a_ik skipped, so the result is the same.
 static void mat_mul(gptr restrict c, int ldc, gcptr restrict a, int lda, gcptr restrict b, int ldb, int n) {
     const int blocked = n - n % 16;
-    for (int i = 0; i < n; ++i) {
-        gptr restrict ci = c + i * ldc;
-        gcptr restrict ai = a + i * lda;
-        for (int j0 = 0; j0 < blocked; j0 += 16) {
-            double16 acc = (double16)(0.0);
+    for (int i = 0; i < n; i += 2) {
+        const int pair = i + 1 < n;
+        gcptr restrict a0 = a + i * lda;
+        gcptr restrict a1 = a + (pair ? i + 1 : i) * lda; // an odd last row is computed twice, kept once
+        gptr restrict c0 = c + i * ldc;
+        gptr restrict c1 = c + (i + 1) * ldc;
+        int j0 = 0;
+        for (; j0 + 32 <= blocked; j0 += 32) {
+            double16 s00 = (double16)(0.0), s01 = (double16)(0.0), s10 = (double16)(0.0), s11 = (double16)(0.0);
+            for (int k = 0; k < n; ++k) {
+                const double x0 = a0[k], x1 = a1[k];
+                const double16 b0 = vload16(0, b + k * ldb + j0), b1 = vload16(0, b + k * ldb + j0 + 16);
+                if (x0 != 0.0) {
+                    s00 += x0 * b0;
+                    s01 += x0 * b1;
+                }
+                if (x1 != 0.0) {
+                    s10 += x1 * b0;
+                    s11 += x1 * b1;
+                }
+            }
+            vstore16(s00, 0, c0 + j0);
+            vstore16(s01, 0, c0 + j0 + 16);
+            if (pair) {
+                vstore16(s10, 0, c1 + j0);
+                vstore16(s11, 0, c1 + j0 + 16);
+            }
+        }
+        for (; j0 < blocked; j0 += 16) {
+            double16 s0 = (double16)(0.0), s1 = (double16)(0.0);
+            for (int k = 0; k < n; ++k) {
+                const double x0 = a0[k], x1 = a1[k];
+                const double16 bk = vload16(0, b + k * ldb + j0);
+                if (x0 != 0.0) s0 += x0 * bk;
+                if (x1 != 0.0) s1 += x1 * bk;
+            }
+            vstore16(s0, 0, c0 + j0);
+            if (pair) vstore16(s1, 0, c1 + j0);
+        }
+        if (blocked == n) continue;
+        for (int r = 0; r <= pair; ++r) {
+            gptr restrict ci = c + (i + r) * ldc;
+            gcptr restrict ai = a + (i + r) * lda;
+            for (int j = blocked; j < n; ++j) ci[j] = 0.0;
             for (int k = 0; k < n; ++k) {
                 const double aik = ai[k];
                 if (aik == 0.0) continue;
-                acc += aik * vload16(0, b + k * ldb + j0);
+                gcptr restrict bk = b + k * ldb;
+                for (int j = blocked; j < n; ++j) ci[j] += aik * bk[j];
             }
-            vstore16(acc, 0, ci + j0);
-        }
-        for (int j = blocked; j < n; ++j) ci[j] = 0.0;
-        if (blocked == n) continue;
-        for (int k = 0; k < n; ++k) {
-            const double aik = ai[k];
-            if (aik == 0.0) continue;
-            gcptr restrict bk = b + k * ldb;
-            for (int j = blocked; j < n; ++j) ci[j] += aik * bk[j];
         }
     }
 }
@@ -58,7 +90,14 @@ static void mat_add(gptr a, gcptr b, int ldb, int n) {
 }
 
 static void mat_identity(gptr a, int n) {
-    for (int q = 0; q < n * n; ++q) a[q] = (q / n == q % n) ? 1.0 : 0.0;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) a[i * n + j] = i == j ? 1.0 : 0.0;
+}
+
+// a = I - a (n x n), element by element as the reference: 1 - a_ii, 0 - a_ij.
+static void identity_minus(gptr a, int n) {
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) a[i * n + j] = (i == j ? 1.0 : 0.0) - a[i * n + j];
 }
 
 // out (ld ldo) = a (n x n)
@@ -67,16 +106,43 @@ static void mat_copy(gptr out, int ldo, gcptr a, int n) {
         for (int j = 0; j < n; ++j) out[i * ldo + j] = a[i * n + j];
 }
 
-static double max_abs_of(gcptr a, int n2) {
-    double m = 0.0;
-    for (int q = 0; q < n2; ++q) m = fmax(m, fabs(a[q]));
-    return m;
+// The reductions below run sixteen lanes at a time (a scalar fmax chain cost a tenth of a solve):
+// the largest of a set is the same in any order, and fmax skips a NaN whatever its place.
+static double lane_max(double16 m) {
+    const double8 h = fmax(m.lo, m.hi);
+    const double4 q = fmax(h.lo, h.hi);
+    const double2 p = fmax(q.lo, q.hi);
+    return fmax(p.lo, p.hi);
 }
 
+// max |a_q| (0 for none)
+static double max_abs_of(gcptr a, int n2) {
+    double16 m = (double16)(0.0);
+    int q = 0;
+    for (; q + 16 <= n2; q += 16) m = fmax(m, fabs(vload16(0, a + q)));
+    double r = lane_max(m);
+    for (; q < n2; ++q) r = fmax(r, fabs(a[q]));
+    return r;
+}
+
+// max |a_q - b_q|: the change of an iteration
+static double max_abs_diff_of(gcptr a, gcptr b, int n2) {
+    double16 m = (double16)(0.0);
+    int q = 0;
+    for (; q + 16 <= n2; q += 16) m = fmax(m, fabs(vload16(0, a + q) - vload16(0, b + q)));
+    double r = lane_max(m);
+    for (; q < n2; ++q) r = fmax(r, fabs(a[q] - b[q]));
+    return r;
+}
+
+// 0 x a_q is 0 for every finite a_q and NaN for an infinity or a NaN: one sum says whether all are finite.
 static int all_finite(gcptr a, int n2) {
-    for (int q = 0; q < n2; ++q)
-        if (!isfinite(a[q])) return 0;
-    return 1;
+    double16 s = (double16)(0.0);
+    int q = 0;
+    for (; q + 16 <= n2; q += 16) s += 0.0 * vload16(0, a + q);
+    double r = 0.0;
+    for (; q < n2; ++q) r += 0.0 * a[q];
+    return isfinite(r) && all(isfinite(s));
 }
 
 // LuFactor(lu): in place, pivots to piv. Returns -1, or the column of a zero / non-finite pivot.
@@ -105,7 +171,9 @@ static int lu_factor(gptr lu, int n, int* piv) {
     return -1;
 }
 
-// LuFactor::solve: (LU) X = B in place, B n x cols with leading dimension ldb.
+// LuFactor::solve: (LU) X = B in place, B n x cols with leading dimension ldb. Sixteen columns of
+// row i stay in registers through each elimination loop (instead of a load and a store per
+// multiply-add); every element is still updated in the reference's k order, zero factors skipped.
 static void lu_solve(gcptr lu, int n, const int* piv, gptr b, int ldb, int cols) {
     for (int k = 0; k < n; ++k) {
         const int p = piv[k];
@@ -116,25 +184,42 @@ static void lu_solve(gcptr lu, int n, const int* piv, gptr b, int ldb, int cols)
                 b[p * ldb + j] = tmp;
             }
     }
+    const int blocked = cols - cols % 16;
     for (int i = 0; i < n; ++i) { // forward: L has a unit diagonal
         gptr bi = b + i * ldb;
+        for (int j0 = 0; j0 < blocked; j0 += 16) {
+            double16 v = vload16(0, bi + j0);
+            for (int k = 0; k < i; ++k) {
+                const double l = lu[i * n + k];
+                if (l != 0.0) v -= l * vload16(0, b + k * ldb + j0);
+            }
+            vstore16(v, 0, bi + j0);
+        }
         for (int k = 0; k < i; ++k) {
             const double l = lu[i * n + k];
             if (l == 0.0) continue;
             gcptr bk = b + k * ldb;
-            for (int j = 0; j < cols; ++j) bi[j] -= l * bk[j];
+            for (int j = blocked; j < cols; ++j) bi[j] -= l * bk[j];
         }
     }
     for (int i = n - 1; i >= 0; --i) { // backward
         gptr bi = b + i * ldb;
+        const double d = lu[i * n + i];
+        for (int j0 = 0; j0 < blocked; j0 += 16) {
+            double16 v = vload16(0, bi + j0);
+            for (int k = i + 1; k < n; ++k) {
+                const double u = lu[i * n + k];
+                if (u != 0.0) v -= u * vload16(0, b + k * ldb + j0);
+            }
+            vstore16(v / d, 0, bi + j0);
+        }
         for (int k = i + 1; k < n; ++k) {
             const double u = lu[i * n + k];
             if (u == 0.0) continue;
             gcptr bk = b + k * ldb;
-            for (int j = 0; j < cols; ++j) bi[j] -= u * bk[j];
+            for (int j = blocked; j < cols; ++j) bi[j] -= u * bk[j];
         }
-        const double d = lu[i * n + i];
-        for (int j = 0; j < cols; ++j) bi[j] /= d;
+        for (int j = blocked; j < cols; ++j) bi[j] /= d;
     }
 }
 
@@ -176,10 +261,13 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
         gptr riccati_c = ws + 6 * n2;
         gptr t = ws + 7 * n2;
         gptr xcx = ws + 8 * n2;
+        gptr divisor = ws + 9 * n2; // once per problem, not two divisions per element per sweep
         for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j)
+            for (int j = 0; j < n; ++j) {
                 amb_fixed_point_element(i, j, n, om, mu, w, phase_plus, phase_minus, sweep_left, sweep_right,
                                         riccati_b, riccati_c, x);
+                divisor[i * n + j] = amb_fixed_point_divisor(mu[i], mu[j]);
+            }
         int it;
         for (it = 1; it <= cap; ++it) {
             // next = ((B + left X) + X right) + (X C) X
@@ -190,10 +278,8 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
             mat_mul(t, n, x, n, riccati_c, n, n);
             mat_mul(xcx, n, t, n, x, n, n);
             mat_add(nx, xcx, n, n);
-            for (int i = 0; i < n; ++i)
-                for (int j = 0; j < n; ++j) nx[i * n + j] /= amb_fixed_point_divisor(mu[i], mu[j]);
-            double change = 0.0;
-            for (int q = 0; q < n2; ++q) change = fmax(change, fabs(nx[q] - x[q]));
+            for (int q = 0; q < n2; ++q) nx[q] /= divisor[q];
+            const double change = max_abs_diff_of(nx, x, n2);
             gptr sw = x;
             x = nx, nx = sw;
             if (!all_finite(x, n2)) {
@@ -276,11 +362,13 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
             mat_identity(vinv, n);
             lu_solve(lu, n, piv, vinv, n, n);
             const double g2 = 2.0 * g;
-            for (int q = 0; q < n2; ++q) {
-                const double eye = (q / n == q % n) ? 1.0 : 0.0;
-                e_k[q] = eye - g2 * vinv[q];
-                f_k[q] = eye - g2 * winv[q];
-            }
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) {
+                    const int q = i * n + j;
+                    const double eye = i == j ? 1.0 : 0.0;
+                    e_k[q] = eye - g2 * vinv[q];
+                    f_k[q] = eye - g2 * winv[q];
+                }
             mat_mul(t, n, dinv, n, riccati_c, n, n); // G0 = 2g ((D_g^-1 C) W^-1)
             mat_mul(g_k, n, t, n, winv, n, n);
             for (int q = 0; q < n2; ++q) g_k[q] = g2 * g_k[q];
@@ -294,14 +382,14 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
                 mat_copy(z, 2 * n, e_k, n);
                 mat_mul(z + n, 2 * n, g_k, n, f_k, n, n);
                 mat_mul(lu, n, g_k, n, h_k, n, n);
-                for (int q = 0; q < n2; ++q) lu[q] = ((q / n == q % n) ? 1.0 : 0.0) - lu[q];
+                identity_minus(lu, n);
                 bad = lu_factor(lu, n, piv);
                 if (bad >= 0) break;
                 lu_solve(lu, n, piv, z, 2 * n, 2 * n);
                 mat_copy(y, 2 * n, f_k, n);
                 mat_mul(y + n, 2 * n, h_k, n, e_k, n, n);
                 mat_mul(lu, n, h_k, n, g_k, n, n);
-                for (int q = 0; q < n2; ++q) lu[q] = ((q / n == q % n) ? 1.0 : 0.0) - lu[q];
+                identity_minus(lu, n);
                 bad = lu_factor(lu, n, piv);
                 if (bad >= 0) break;
                 lu_solve(lu, n, piv, y, 2 * n, 2 * n);
@@ -311,8 +399,7 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
                 mat_mul(f_next, n, f_k, n, y, 2 * n, n);
                 mat_mul(h_next, n, f_k, n, y + n, 2 * n, n);
                 for (int q = 0; q < n2; ++q) h_next[q] = h_k[q] + h_next[q];
-                double change = 0.0;
-                for (int q = 0; q < n2; ++q) change = fmax(change, fabs(h_next[q] - h_k[q]));
+                const double change = max_abs_diff_of(h_next, h_k, n2);
                 gptr sw;
                 sw = e_k, e_k = e_next, e_next = sw;
                 sw = f_k, f_k = f_next, f_next = sw;
