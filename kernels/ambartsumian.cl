@@ -121,6 +121,7 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
     // Outcome and control state (private, identical on every work-item).
     int iterations = 0, converged = 0, error = AMB_OK, detail = 0;
     int state = S_START, it = 0, sweeps = 0, cap = 0;
+    double previous = 0.0, before = 0.0; // the fixed point's changes of the last two sweeps
     int lu_k = 0, lu_ret = 0, lu_p = 0;
     double pivot = 1.0;
     __global double* result = x;
@@ -182,7 +183,11 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                 } else if (change <= task.tolerance * scale) {
                     converged = 1;
                     state = S_FP_DONE;
+                } else if (task.method == AMB_FAST &&
+                           amb_fast_gives_up(it, cap, change, previous, before, task.tolerance * scale)) {
+                    state = S_FP_DONE;
                 } else {
+                    before = previous, previous = change;
                     state = S_FP_LOOP;
                 }
                 break;

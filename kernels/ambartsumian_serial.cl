@@ -269,6 +269,7 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
                 divisor[i * n + j] = amb_fixed_point_divisor(mu[i], mu[j]);
             }
         int it;
+        double previous = 0.0, before = 0.0; // the changes of the last two sweeps
         for (it = 1; it <= cap; ++it) {
             // next = ((B + left X) + X right) + (X C) X
             mat_mul(nx, n, sweep_left, n, x, n, n);
@@ -286,10 +287,13 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
                 error = AMB_FIXED_POINT_DIVERGED;
                 break;
             }
-            if (change <= task.tolerance * max_abs_of(x, n2)) {
+            const double target = task.tolerance * max_abs_of(x, n2);
+            if (change <= target) {
                 converged = 1;
                 break;
             }
+            if (task.method == AMB_FAST && amb_fast_gives_up(it, cap, change, previous, before, target)) break;
+            before = previous, previous = change;
         }
         iterations = min(it, cap);
         result = x;

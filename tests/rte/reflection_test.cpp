@@ -78,6 +78,51 @@ TEST(Solvers, AllThreeAgreeOnEveryOrder) {
     }
 }
 
+TEST(Solvers, FastGivesUpOnlyAFixedPointThatCannotConvergeByItsCap) {
+    // Albedo 1, HG g = 0.9: low orders m >= 1 need more fixed-point sweeps than Method::Fast's cap,
+    // higher ones fewer. A try given up early must be one that the capped sweeps would not have
+    // finished (so the answer is doubling's, bit for bit, and fewer sweeps were spent), and a try
+    // that finishes within the cap must run as the plain fixed point does.
+    rte::ReflectionSettings settings;
+    settings.streams = 32;
+    const rte::StackSetup setup = rte::setup_reflection({1.0, hg_beta(0.9, 200)}, {}, settings);
+    const rte::SolveControl control;
+    rte::SolveControl capped = control;
+    capped.max_iterations = control.fast_sweeps;
+    int given_up = 0, finished = 0;
+    for (const auto& problem : rte::order_problems(setup)) {
+        if (problem.m == 0) continue; // straight to doubling at albedo > 0.9
+        const auto fp = rte::solve_fixed_point(problem, capped);
+        const auto fast = rte::solve_order(problem, rte::Method::Fast, control);
+        if (fp.converged) {
+            ++finished;
+            EXPECT_EQ(fast.iterations, fp.iterations) << "m " << problem.m;
+            EXPECT_EQ(max_abs_diff(fast.x, fp.x), 0.0) << "m " << problem.m;
+        } else {
+            const auto sda = rte::solve_order(problem, rte::Method::Doubling, control);
+            const int sweeps = fast.iterations - sda.iterations;
+            given_up += sweeps < control.fast_sweeps;
+            EXPECT_LT(sweeps, control.fast_sweeps) << "m " << problem.m;
+            EXPECT_EQ(max_abs_diff(fast.x, sda.x), 0.0) << "m " << problem.m;
+        }
+    }
+    std::printf("orders given up early %d, finished by the fixed point %d\n", given_up, finished);
+    EXPECT_GE(given_up, 2);
+    EXPECT_GE(finished, 2);
+}
+
+TEST(Solvers, FastGivesUpFromTheRateOfAGeometricChange) {
+    // A change falling by 0.9 per sweep from 1 at sweep 4 reaches 0.9^26 = 0.065 at the cap of 30.
+    EXPECT_EQ(amb_fast_gives_up(4, 30, 1.0, 1.0 / 0.9, 1.0 / 0.81, 0.07), 0);
+    EXPECT_EQ(amb_fast_gives_up(4, 30, 1.0, 1.0 / 0.9, 1.0 / 0.81, 0.06), 1);
+    // The faster of the last two ratios decides, and no decision before sweep 4 or
+    // while the change does not fall.
+    EXPECT_EQ(amb_fast_gives_up(4, 30, 1.0, 2.0, 2.0 / 0.99, 1e-7), 0); // 0.5^26 = 1.5e-8
+    EXPECT_EQ(amb_fast_gives_up(3, 30, 1.0, 1.0 / 0.99, 1.0 / 0.98, 1e-8), 0);
+    EXPECT_EQ(amb_fast_gives_up(10, 30, 1.0, 1.0, 1.0, 1e-8), 0);
+    EXPECT_EQ(amb_fast_gives_up(10, 30, 1.0, 1.0 / 0.99, 1.0 / 0.98, 1e-8), 1);
+}
+
 TEST(Conservation, PlaneAlbedoIsOneAtAlbedoOne) {
     const std::vector<std::vector<double>> phases = {{1.0}, rayleigh_beta(), hg_beta(0.5, 200), hg_beta(0.9, 400),
                                                      hg_beta(-0.5, 200)};

@@ -93,6 +93,7 @@ OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& cont
     }
     OrderSolution s;
     s.x = Matrix(n, n);
+    double previous = 0.0, before = 0.0; // the changes of the last two sweeps
     for (s.iterations = 1; s.iterations <= control.max_iterations; ++s.iterations) {
         Matrix next = b + left * s.x + s.x * right + s.x * c * s.x;
         for (int i = 0; i < n; ++i)
@@ -100,10 +101,15 @@ OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& cont
         const double change = max_abs_diff(next, s.x);
         s.x = std::move(next);
         if (!finite(s.x)) throw NumericalError(cat("fixed-point iteration diverged at order ", pr.m));
-        if (change <= control.tolerance * max_abs(s.x)) {
+        const double target = control.tolerance * max_abs(s.x);
+        if (change <= target) {
             s.converged = true;
             break;
         }
+        if (control.give_up_when_slow &&
+            amb_fast_gives_up(s.iterations, control.max_iterations, change, previous, before, target))
+            break;
+        before = previous, previous = change;
     }
     s.iterations = std::min(s.iterations, control.max_iterations);
     s.residual = riccati_residual(riccati_matrices(pr), s.x);
@@ -173,12 +179,14 @@ OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control
 
 OrderSolution solve_fast(const OrderProblem& problem, const SolveControl& control) {
     // A fixed-point sweep costs about 3 N^3, a doubling step about 17 N^3 and doubling needs ~14
-    // steps: the sweeps win whenever they converge within about 30 (a failed try costs about a third of
-    // a doubling solve), which m >= 1 nearly always does (m = 1 at albedo 1 needs 13 to 25).
+    // steps: the sweeps win whenever they converge within about 30, which m >= 1 nearly always does
+    // (m = 1 at albedo 1 needs 13 to 25). A try that will not makes it plain from its rate within a
+    // few sweeps (amb_fast_gives_up) and stops there, not at the cap.
     int sweeps = 0;
     if (!amb_fast_starts_with_doubling(problem.m, problem.omega)) {
         SolveControl capped = control;
         capped.max_iterations = control.fast_sweeps;
+        capped.give_up_when_slow = true;
         OrderSolution s = solve_fixed_point(problem, capped);
         if (s.converged) return s;
         sweeps = s.iterations;

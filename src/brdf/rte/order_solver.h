@@ -54,6 +54,9 @@ struct SolveControl {
     int max_iterations = 100000; ///< fixed point; doubling stops at max_doubling_steps whatever this says
     double gamma = 1.0;          ///< doubling's Cayley parameter (order 1 keeps full accuracy, docs/physics.md)
     int fast_sweeps = 30;        ///< Method::Fast: fixed-point sweeps before switching to doubling
+    /// solve_fixed_point stops before max_iterations once its convergence rate says it cannot get
+    /// there (amb_fast_gives_up): Method::Fast's first try.
+    bool give_up_when_slow = false;
 };
 
 struct OrderSolution {
