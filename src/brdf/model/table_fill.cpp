@@ -386,6 +386,23 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
         });
     }
     // The single-scattering terms of every sample and layer (none under a rough surface: no TMS).
+    // A reflection seen from air scatters inside a layer of index n > 1 through cos Theta <= 2 / n^2
+    // - 1 at most (both directions at the critical angle, opposite azimuths; add_single_scattering
+    // and the kernel refract with the term's index): table points below u_min = (sqrt(n^2 - 1) - 1) /
+    // n are never read, for the lowest index of any term (the shared terms' index nodes are terms'
+    // indices). They stay 0 and are not summed: half the table under a binder of 1.5, where each
+    // point sums thousands of Legendre terms for big spheres.
+    double lowest_index = std::numeric_limits<double>::infinity();
+    for (std::size_t k : which) {
+        const rte::Reflection& r = material.samples[k].reflection;
+        for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer)
+            lowest_index = std::min(lowest_index, r.scattering_layer(layer).index);
+    }
+    int first_phase_point = 0; // the cubic's taps reach one point below the interval; one more for rounding
+    if (lowest_index > 1.0 && std::isfinite(lowest_index)) {
+        const double u_min = (std::sqrt(lowest_index * lowest_index - 1.0) - 1.0) / lowest_index;
+        first_phase_point = std::max(0, static_cast<int>(std::floor(0.5 * (u_min + 1.0) * phase_table_intervals)) - 2);
+    }
     std::vector<std::vector<SingleScatteringTerm>> per_sample(which.size());
     parallel_for(static_cast<int>(which.size()), available_cpus(), [&](int j) {
         const rte::Reflection& r = material.samples[which[j]].reflection;
@@ -394,13 +411,14 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
         for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer) {
             const rte::Reflection::ScatteringLayer l = r.scattering_layer(layer);
             SingleScatteringTerm t{l.index, l.tau, layer == 0, weights[j], {}, {}};
-            std::vector<double> cos_theta(phase_table_points);
-            for (int p = 0; p < phase_table_points; ++p) { // u_p = 2 (p - 1) / intervals - 1
+            std::vector<double> cos_theta;
+            for (int p = first_phase_point; p < phase_table_points; ++p) { // u_p = 2 (p - 1) / intervals - 1
                 const double u = 2.0 * (p - 1) / phase_table_intervals - 1.0;
-                cos_theta[p] = -u * std::sqrt(2.0 - u * u);
+                cos_theta.push_back(-u * std::sqrt(2.0 - u * u));
             }
-            t.phase.resize(phase_table_points);
-            rte::phase_values(*l.beta, cos_theta, t.phase); // all points at once: thousands of degrees for big spheres
+            t.phase.assign(phase_table_points, 0.0);
+            // all points at once: thousands of degrees for big spheres
+            rte::phase_values(*l.beta, cos_theta, std::span<double>(t.phase).subspan(first_phase_point));
             for (double& v : t.phase) v *= 0.25 * l.albedo;
             t.transmission.resize(fresnel_table_points);
             for (int p = 1; p + 1 < fresnel_table_points; ++p) // mu_p = (p - 1) / intervals
