@@ -118,10 +118,12 @@ TEST_P(ClSolver, FixedPointMatchesReference) {
 
 TEST_P(ClSolver, BatchMixesStreamCounts) {
     // Different n in one launch, including a split rule and n = 1, interleaved. A short phase series
-    // (no delta-M here): the few-stream rules must still integrate it well enough to converge.
+    // (no delta-M here): the few-stream rules must still integrate it well enough to converge. The
+    // serial kernel's products run in row pairs over 32-, 16- and single-column blocks: odd n, n
+    // below 16, 16 + 8 (24), 32 + 16 (48) and 32 + 9 (41) each take another path.
     std::vector<Labelled> batch;
     const std::vector<double> beta = test::hg_beta(0.5, 4);
-    for (int n : {5, 32, 1, 12, 24}) {
+    for (int n : {5, 32, 1, 12, 24, 48, 41}) {
         const Streams s = gauss_streams(n);
         for (int m : {0, 1, 3})
             batch.push_back({"n " + std::to_string(n) + " m " + std::to_string(m),
