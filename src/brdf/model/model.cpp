@@ -9,6 +9,7 @@
 #include <brdf/rte/cl_solver.h>
 
 #include <chrono>
+#include <exception>
 #include <functional>
 #include <tuple>
 #include <numbers>
@@ -345,13 +346,28 @@ std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, co
     // The semi-infinite layers' orders of every stack in one batch on the device; the finite layers
     // (slab eigen solutions, rte/slab.h) and the adding on the host, one stack per core, when each
     // Reflection is made.
-    std::vector<rte::StackSetup> setups;
+    // The set-ups (delta-M, the phase matrices of every order) are independent per stack: one stack
+    // per core (they ran on one core, 0.2 s of a gloss finish's 41 stacks at 48 streams). A failing
+    // stack's error is the first in stack order, whatever the scheduling.
+    const int count = static_cast<int>(stacks.size());
+    std::vector<rte::StackSetup> setups(stacks.size());
+    std::vector<std::vector<rte::OrderProblem>> own(stacks.size());
+    std::vector<std::exception_ptr> failed(stacks.size());
+    parallel_for(count, available_cpus(), [&](int k) {
+        try {
+            setups[k] = rte::setup_reflection(stacks[k], rs);
+            own[k] = rte::order_problems(setups[k]);
+        } catch (...) {
+            failed[k] = std::current_exception();
+        }
+    });
+    for (const std::exception_ptr& e : failed)
+        if (e) std::rethrow_exception(e);
     std::vector<rte::OrderProblem> problems;
     std::vector<std::size_t> first_problem;
-    for (const rte::Stack& stack : stacks) {
-        setups.push_back(rte::setup_reflection(stack, rs));
+    for (auto& mine : own) {
         first_problem.push_back(problems.size());
-        for (auto& p : rte::order_problems(setups.back())) problems.push_back(std::move(p));
+        for (auto& p : mine) problems.push_back(std::move(p));
     }
     first_problem.push_back(problems.size());
     const std::shared_ptr<const rte::RoughKernelFamily> family = shared_rough_kernels(setups, rs);
