@@ -11,6 +11,7 @@
 #include <chrono>
 #include <exception>
 #include <functional>
+#include <future>
 #include <tuple>
 #include <numbers>
 #include <optional>
@@ -475,6 +476,19 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     rs.max_orders = st.max_orders;
     rs.method = st.method;
     rs.control.tolerance = st.solver_tolerance;
+
+    // 0. The OpenCL device opens on one core (PoCL loads its compiler: 0.13-0.2 s here) and was
+    // opened by the first solve, after Mie, with the other core idle; opened now, it overlaps the
+    // optics. A failure is left to the first solve (solve_stacks), which opens it again and raises
+    // the error as before.
+    std::future<void> device_opening;
+    if (device == Device::OpenCL)
+        device_opening = std::async(std::launch::async, [] {
+            try {
+                cl::Context::shared();
+            } catch (...) {
+            }
+        });
 
     // 1. Optics per wavelength (or per channel of an analytic material), every layer.
     auto t0 = std::chrono::steady_clock::now();
