@@ -324,7 +324,7 @@ TEST(PipelineTable, LobesFromThePreviewGridMatchTheTableGrid) {
         SCOPED_TRACE(keys);
         const model::SolvedMaterial m = solve_seed_white(keys);
         const model::FillInputs table = model::prepare_fill(m);
-    const model::FillInputs coarse = model::prepare_fill(m, preview::preview_zenith_grid);
+        const model::FillInputs coarse = model::prepare_fill(m, preview::preview_zenith_grid);
         ASSERT_EQ(table.grid, 91);
         for (double theta_i : {30.0, 60.0}) {
             double peak = 0.0, worst = 0.0, worst_below_88 = 0.0;

@@ -403,6 +403,11 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
         const double u_min = (std::sqrt(lowest_index * lowest_index - 1.0) - 1.0) / lowest_index;
         first_phase_point = std::max(0, static_cast<int>(std::floor(0.5 * (u_min + 1.0) * phase_table_intervals)) - 2);
     }
+    std::vector<double> cos_theta; // the table's points from first_phase_point on, the same for every term
+    for (int p = first_phase_point; p < phase_table_points; ++p) { // u_p = 2 (p - 1) / intervals - 1
+        const double u = 2.0 * (p - 1) / phase_table_intervals - 1.0;
+        cos_theta.push_back(-u * std::sqrt(2.0 - u * u));
+    }
     std::vector<std::vector<SingleScatteringTerm>> per_sample(which.size());
     parallel_for(static_cast<int>(which.size()), available_cpus(), [&](int j) {
         const rte::Reflection& r = material.samples[which[j]].reflection;
@@ -411,11 +416,6 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
         for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer) {
             const rte::Reflection::ScatteringLayer l = r.scattering_layer(layer);
             SingleScatteringTerm t{l.index, l.tau, layer == 0, weights[j], {}, {}};
-            std::vector<double> cos_theta;
-            for (int p = first_phase_point; p < phase_table_points; ++p) { // u_p = 2 (p - 1) / intervals - 1
-                const double u = 2.0 * (p - 1) / phase_table_intervals - 1.0;
-                cos_theta.push_back(-u * std::sqrt(2.0 - u * u));
-            }
             t.phase.assign(phase_table_points, 0.0);
             // all points at once: thousands of degrees for big spheres
             rte::phase_values(*l.beta, cos_theta, std::span<double>(t.phase).subspan(first_phase_point));
