@@ -6,13 +6,9 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfOutputFile.h>
-#include <ImfStandardAttributes.h>
-#include <ImfStringAttribute.h>
+#include <formats/exr/zip_writer.h>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string_view>
@@ -24,7 +20,6 @@ namespace {
 
 using detail::CoreHeader;
 using detail::display;
-using detail::TableOStream;
 
 constexpr const char* channel_names[3] = {"R", "G", "B"};
 
@@ -130,59 +125,35 @@ BrdfTable read_exr(const std::filesystem::path& path) {
 
 void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
     check_table(table, display(path));
+    // float32 planes; no data (-1) and cells below the horizon are written as 0 (write_zip_table).
     std::array<std::vector<float>, 3> planes;
-    for (auto& plane : planes) plane.assign(cells, 0.0f);
-    std::size_t no_data_above_horizon = 0;
-    for (std::size_t cell = 0; cell < cells; ++cell) {
-        if (cell_below_horizon(cell)) continue;
-        if (!table.has_data(cell)) {
-            ++no_data_above_horizon;
-            continue;
-        }
-        for (int c = 0; c < 3; ++c) planes[c][cell] = static_cast<float>(table.channels[c][cell]);
+    for (int c = 0; c < 3; ++c) {
+        planes[c].resize(cells);
+        std::transform(table.channels[c].begin(), table.channels[c].end(), planes[c].begin(),
+                       [](double v) { return static_cast<float>(v); });
     }
+    std::size_t no_data_above_horizon = 0;
+    for (std::size_t cell = 0; cell < cells; ++cell)
+        no_data_above_horizon += !cell_below_horizon(cell) && !table.has_data(cell);
     if (no_data_above_horizon > 0)
         log::warn(display(path), ": ", no_data_above_horizon,
                   " cells above the horizon hold no data; OpenEXR tables store them as 0");
 
-    Imf::Header header(exr_width, exr_height);
-    header.compression() = Imf::ZIP_COMPRESSION;
-    for (const char* name : channel_names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-    header.insert("brdf.layout", Imf::StringAttribute(exr_layout));
-    header.insert("brdf.units", Imf::StringAttribute(exr_units));
     const std::string colorspace =
         table.colorspace == legacy_rec709_colorspace ? default_colorspace : table.colorspace;
-    header.insert("brdf.colorspace", Imf::StringAttribute(colorspace));
-    if (const auto c = colorspace_chromaticities(colorspace))
-        Imf::addChromaticities(header, Imf::Chromaticities({(*c)[0], (*c)[1]}, {(*c)[2], (*c)[3]},
-                                                           {(*c)[4], (*c)[5]}, {(*c)[6], (*c)[7]}));
-    else
+    const std::optional<Chromaticities> chromaticities = colorspace_chromaticities(colorspace);
+    if (!chromaticities)
         log::warn(display(path), ": unknown colour space \"", colorspace,
                   "\" (rec709, acescg, rec2020): no chromaticities attribute written");
-    header.insert("brdf.spec", Imf::StringAttribute(table.spec));
-    header.insert("brdf.generator", Imf::StringAttribute(table.generator));
-
-    detail::AtomicFile out(path);
-    TableOStream stream(out);
-    try {
-        // The file's offset table is written when `file` is destroyed: end its scope before commit.
-        Imf::OutputFile file(stream, header, detail::exr_threads());
-        Imf::FrameBuffer frame;
-        for (int c = 0; c < 3; ++c)
-            frame.insert(channel_names[c],
-                         Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes[c].data()),
-                                    sizeof(float), sizeof(float) * exr_width));
-        file.setFrameBuffer(frame);
-        file.writePixels(exr_height);
-    } catch (const Error&) {
-        throw;
-    } catch (const std::exception& e) {
-        if (stream.io_error()) throw IoError(*stream.io_error());
-        throw IoError(cat(display(path), ": cannot write: OpenEXR: ", e.what()));
-    }
-    // OpenEXR's destructor swallows errors while it writes the offset table; the stream did not.
-    if (stream.io_error()) throw IoError(*stream.io_error());
-    out.commit();
+    std::vector<detail::PlaneSource> sources;
+    for (int c = 0; c < 3; ++c) sources.push_back({channel_names[c], planes[c].data()});
+    detail::write_zip_table(path, sources,
+                            {{"brdf.layout", exr_layout},
+                             {"brdf.units", exr_units},
+                             {"brdf.colorspace", colorspace},
+                             {"brdf.spec", table.spec},
+                             {"brdf.generator", table.generator}},
+                            chromaticities);
 }
 
 } // namespace brdf::formats

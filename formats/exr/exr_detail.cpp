@@ -70,7 +70,7 @@ std::vector<std::string> channel_names(const CoreHeader& header) {
 void read_planes(const InputFile& file, const std::vector<PlaneTarget>& planes) {
     TableIStream stream(file);
     try {
-        Imf::MultiPartInputFile input(stream);
+        Imf::MultiPartInputFile input(stream, exr_threads());
         Imf::InputPart part(input, 0);
         const Imath::Box2i dw = part.header().dataWindow();
         Imf::FrameBuffer frame;

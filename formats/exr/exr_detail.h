@@ -20,7 +20,7 @@
 
 namespace brdf::formats::detail {
 
-// OpenEXR streams over our RAII files. They throw only Iex exceptions, which OpenEXR expects (its
+// OpenEXR's input stream over our RAII file. It throws only Iex exceptions, which OpenEXR expects (its
 // destructors catch those and nothing else); the brdf::IoError behind a failure is kept so that the
 // caller can rethrow it as what it is.
 class TableIStream final : public Imf::IStream {
@@ -51,32 +51,6 @@ class TableIStream final : public Imf::IStream {
 
   private:
     const detail::InputFile& m_file;
-    std::uint64_t m_pos = 0;
-    std::optional<std::string> m_io_error;
-};
-
-class TableOStream final : public Imf::OStream {
-  public:
-    explicit TableOStream(detail::AtomicFile& file)
-        : Imf::OStream(file.target().c_str()), m_file(file) {}
-
-    void write(const char c[], int n) override {
-        if (n < 0) throw Iex::IoExc("negative write size");
-        try {
-            m_file.write_at(m_pos, c, static_cast<std::size_t>(n));
-        } catch (const IoError& e) {
-            if (!m_io_error) m_io_error = e.what();
-            throw Iex::IoExc(e.what());
-        }
-        m_pos += static_cast<std::uint64_t>(n);
-    }
-    std::uint64_t tellp() override { return m_pos; }
-    void seekp(std::uint64_t pos) override { m_pos = pos; }
-
-    const std::optional<std::string>& io_error() const { return m_io_error; }
-
-  private:
-    detail::AtomicFile& m_file;
     std::uint64_t m_pos = 0;
     std::optional<std::string> m_io_error;
 };
@@ -184,8 +158,8 @@ struct PlaneTarget {
 /// C++ API; IoError or FormatError naming the path.
 void read_planes(const InputFile& file, const std::vector<PlaneTarget>& planes);
 
-/// The number of threads OpenEXR (de)compresses line blocks on: one per core, set once before the
-/// first file is opened (ZIP compression of a table's 1.46 million cells is most of its write).
+/// The number of threads OpenEXR decompresses line blocks on: one per core, set once before the
+/// first file is opened (the writers compress their blocks themselves: zip_writer.h).
 int exr_threads();
 
 } // namespace brdf::formats::detail

@@ -2,16 +2,11 @@
 
 #include <formats/exr/exr.h>
 #include <formats/exr/exr_detail.h>
+#include <formats/exr/zip_writer.h>
 #include <formats/table.h>
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
-
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfOutputFile.h>
-#include <ImfStringAttribute.h>
 
 #include <algorithm>
 #include <cmath>
@@ -252,49 +247,15 @@ void write_spectral_exr(const std::filesystem::path& path, const SpectralTable& 
         log::warn(where, ": ", no_data_above_horizon,
                   " cells above the horizon hold no data; OpenEXR tables store them as 0");
 
-    std::vector<std::string> names(n);
-    for (std::size_t j = 0; j < n; ++j) names[j] = spectral_channel_name(table.wavelengths_nm[j]);
-    Imf::Header header(exr_width, exr_height);
-    header.compression() = Imf::ZIP_COMPRESSION;
-    for (const std::string& name : names) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-    header.insert("spectralLayoutVersion", Imf::StringAttribute(spectral_layout_version));
-    header.insert("brdf.layout", Imf::StringAttribute(exr_layout));
-    header.insert("brdf.units", Imf::StringAttribute(exr_units));
-    header.insert("brdf.spec", Imf::StringAttribute(table.spec));
-    header.insert("brdf.generator", Imf::StringAttribute(table.generator));
-
-    detail::AtomicFile out(path);
-    detail::TableOStream stream(out);
-    try {
-        Imf::OutputFile file(stream, header, detail::exr_threads());
-        // One theta_h index (90 rows) at a time, so that writing needs no second copy of the
-        // planes: 0 below the horizon and in no-data cells.
-        constexpr int rows = theta_d_bins;
-        constexpr std::size_t chunk = std::size_t{rows} * exr_width;
-        std::vector<std::vector<float>> buffers(n, std::vector<float>(chunk));
-        for (int y0 = 0; y0 < exr_height; y0 += rows) {
-            Imf::FrameBuffer frame;
-            for (std::size_t j = 0; j < n; ++j) {
-                for (std::size_t k = 0; k < chunk; ++k) {
-                    const std::size_t cell = std::size_t(y0) * exr_width + k;
-                    const float v = table.planes[j][cell];
-                    buffers[j][k] = !cell_below_horizon(cell) && v >= 0.0f ? v : 0.0f;
-                }
-                frame.insert(names[j], Imf::Slice::Make(Imf::FLOAT, buffers[j].data(),
-                                                        Imath::V2i(0, y0), exr_width, rows,
-                                                        sizeof(float), sizeof(float) * exr_width));
-            }
-            file.setFrameBuffer(frame);
-            file.writePixels(rows);
-        }
-    } catch (const Error&) {
-        throw;
-    } catch (const std::exception& e) {
-        if (stream.io_error()) throw IoError(*stream.io_error());
-        throw IoError(cat(where, ": cannot write: OpenEXR: ", e.what()));
-    }
-    if (stream.io_error()) throw IoError(*stream.io_error());
-    out.commit();
+    std::vector<detail::PlaneSource> sources;
+    for (std::size_t j = 0; j < n; ++j) sources.push_back({spectral_channel_name(table.wavelengths_nm[j]), table.planes[j].data()});
+    detail::write_zip_table(path, sources,
+                            {{"spectralLayoutVersion", spectral_layout_version},
+                             {"brdf.layout", exr_layout},
+                             {"brdf.units", exr_units},
+                             {"brdf.spec", table.spec},
+                             {"brdf.generator", table.generator}},
+                            std::nullopt);
 }
 
 } // namespace brdf::formats

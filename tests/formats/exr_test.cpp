@@ -457,6 +457,49 @@ TEST(ExrRead, CheckedInSpecimens) {
                              "there)");
 }
 
+// The writer compresses OpenEXR's ZIP blocks itself (formats/exr/zip_writer.h); a block that does
+// not shrink is stored as it is, as OpenEXR stores it. Values of random bits (every exponent, every
+// mantissa) in the first half of the rows defeat the compressor, smooth values in the second half
+// do not: OpenEXR's own reader (OpenImageIO) must read both kinds, exactly, and the file must be
+// larger than a table of smooth values alone.
+TEST(ExrWrite, BlocksThatDoNotShrinkAreStoredAsTheyAre) {
+    TempDir dir;
+    BrdfTable t = test::analytic_table();
+    std::uint32_t state = 12345;
+    const auto next = [&state] { // xorshift32
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        return state;
+    };
+    for (std::size_t cell = 0; cell < cells / 2; ++cell) {
+        if (cell_below_horizon(cell)) continue;
+        for (int c = 0; c < 3; ++c) {
+            const std::uint32_t bits = next() & 0x7f7fffffu; // positive, finite
+            float v;
+            std::memcpy(&v, &bits, sizeof v);
+            t.channels[c][cell] = v;
+        }
+    }
+    write_exr(dir / "noise.exr", t);
+    write_exr(dir / "smooth.exr", test::analytic_table());
+    EXPECT_GT(fs::file_size(dir / "noise.exr"), fs::file_size(dir / "smooth.exr") + cells / 2 * 3 * 3);
+    auto in = OIIO::ImageInput::open((dir / "noise.exr").string());
+    ASSERT_TRUE(in) << OIIO::geterror();
+    std::vector<float> pixels(std::size_t{180} * 8100 * 3);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::FLOAT, pixels.data()));
+    for (std::size_t cell = 0; cell < cells; ++cell)
+        for (int c = 0; c < 3; ++c)
+            ASSERT_EQ(pixels[cell * 3 + c], cell_below_horizon(cell) ? 0.0f : as_float(t.channels[c][cell]))
+                << describe_cell(cell);
+    const BrdfTable back = read_exr(dir / "noise.exr");
+    for (std::size_t cell = 0; cell < cells; ++cell)
+        for (int c = 0; c < 3; ++c)
+            if (!cell_below_horizon(cell)) {
+                ASSERT_EQ(back.channels[c][cell], double(as_float(t.channels[c][cell])));
+            }
+}
+
 TEST(ExrWrite, BadTableIsRefusedAndNothingIsLeftBehind) {
     TempDir dir;
     BrdfTable t;

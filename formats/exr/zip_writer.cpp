@@ -1,0 +1,190 @@
+#include <formats/exr/zip_writer.h>
+
+#include <formats/file_io.h>
+#include <formats/halfdiff.h>
+
+#include <brdf/core/error.h>
+#include <brdf/core/log.h>
+#include <brdf/core/threads.h>
+
+#include <libdeflate.h>
+#include <openexr.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <new>
+
+namespace brdf::formats::detail {
+namespace {
+
+// OpenEXR's ZIP_COMPRESSION: 16 scanlines per block (the file format's definition).
+constexpr int zip_lines = 16;
+// libdeflate's fastest level: 9.8 MB for a seed table's 17.5 MB where level 4 (OpenEXR's own
+// default) gives 9.7 MB at 1.2 times the time; the tables are written for every material.
+constexpr int deflate_level = 1;
+
+struct CompressorDeleter {
+    void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
+};
+using Compressor = std::unique_ptr<libdeflate_compressor, CompressorDeleter>;
+
+// One block: the Xdr bytes of lines [y0, y0 + lines) of every plane, then OpenEXR's ZIP transform
+// (even/odd byte split and the byte predictor), compressed. `scratch` holds the Xdr bytes and the
+// transformed ones. Stored raw when compression does not shrink it, as OpenEXR does.
+std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int y0, int lines,
+                                     libdeflate_compressor* compressor, std::vector<unsigned char>& scratch) {
+    const std::size_t row_bytes = sizeof(float) * exr_width;
+    const std::size_t size = row_bytes * planes.size() * static_cast<std::size_t>(lines);
+    scratch.resize(2 * size);
+    unsigned char* xdr = scratch.data();
+    unsigned char* split = scratch.data() + size;
+    unsigned char* at = xdr;
+    std::uint32_t row[exr_width];
+    for (int y = y0; y < y0 + lines; ++y) {
+        const std::size_t first = static_cast<std::size_t>(y) * exr_width;
+        for (const PlaneSource& p : planes) {
+            for (int x = 0; x < exr_width; ++x) {
+                const float v = p.data[first + x];
+                const float stored = v >= 0.0f && !cell_below_horizon(first + x) ? v : 0.0f;
+                std::uint32_t bits;
+                std::memcpy(&bits, &stored, sizeof bits);
+                row[x] = bits; // little-endian host: the Xdr order
+            }
+            std::memcpy(at, row, row_bytes);
+            at += row_bytes;
+        }
+    }
+    static_assert(std::endian::native == std::endian::little, "Xdr bytes are written as the host holds them");
+    // Even bytes first, then odd ones; then each byte as its difference to the one before + 128.
+    const std::size_t half = (size + 1) / 2;
+    for (std::size_t i = 0; i < half; ++i) split[i] = xdr[2 * i];
+    for (std::size_t i = 0; 2 * i + 1 < size; ++i) split[half + i] = xdr[2 * i + 1];
+    for (std::size_t i = size - 1; i > 0; --i)
+        split[i] = static_cast<unsigned char>(static_cast<int>(split[i]) - split[i - 1] + (128 + 256));
+    std::vector<unsigned char> out(libdeflate_zlib_compress_bound(compressor, size));
+    const std::size_t packed = libdeflate_zlib_compress(compressor, split, size, out.data(), out.size());
+    if (packed == 0 || packed >= size) return std::vector<unsigned char>(xdr, xdr + size);
+    out.resize(packed);
+    return out;
+}
+
+// The Core context writing through an AtomicFile; its errors are collected, the first kept.
+class CoreWriter {
+  public:
+    CoreWriter(AtomicFile& file, const std::filesystem::path& path) : m_file(file), m_path(path) {
+        exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+        init.user_data = this;
+        init.write_fn = &CoreWriter::write;
+        init.error_handler_fn = &CoreWriter::error;
+        check(exr_start_write(&m_context, path.c_str(), EXR_WRITE_FILE_DIRECTLY, &init));
+    }
+    ~CoreWriter() {
+        if (m_context) exr_finish(&m_context);
+    }
+    CoreWriter(const CoreWriter&) = delete;
+    CoreWriter& operator=(const CoreWriter&) = delete;
+
+    exr_context_t context() const { return m_context; }
+
+    void check(exr_result_t rv) const {
+        if (rv == EXR_ERR_SUCCESS) return;
+        if (m_io_error) throw IoError(*m_io_error);
+        throw IoError(cat(display(m_path), ": cannot write: OpenEXR: ",
+                          m_message.empty() ? exr_get_default_error_message(rv) : m_message));
+    }
+    // Writes the offset table and closes the context.
+    void finish() {
+        const exr_result_t rv = exr_finish(&m_context);
+        m_context = nullptr;
+        check(rv);
+    }
+
+  private:
+    static int64_t write(exr_const_context_t, void* self, const void* buffer, uint64_t n, uint64_t offset,
+                         exr_stream_error_func_ptr_t) {
+        auto* writer = static_cast<CoreWriter*>(self);
+        try {
+            writer->m_file.write_at(offset, buffer, static_cast<std::size_t>(n));
+            return static_cast<int64_t>(n);
+        } catch (const IoError& e) {
+            if (!writer->m_io_error) writer->m_io_error = e.what();
+            return -1;
+        }
+    }
+    static void error(exr_const_context_t context, exr_result_t, const char* message) {
+        void* self = nullptr;
+        if (exr_get_user_data(context, &self) == EXR_ERR_SUCCESS && self && message) {
+            auto* writer = static_cast<CoreWriter*>(self);
+            if (writer->m_message.empty()) writer->m_message = message;
+        }
+    }
+
+    AtomicFile& m_file;
+    std::filesystem::path m_path;
+    std::string m_message;
+    std::optional<std::string> m_io_error;
+    exr_context_t m_context = nullptr;
+};
+
+} // namespace
+
+void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneSource>& planes,
+                     const std::vector<std::pair<std::string, std::string>>& attributes,
+                     const std::optional<Chromaticities>& chromaticities) {
+    AtomicFile out(path);
+    {
+        CoreWriter writer(out, path);
+        exr_context_t ctx = writer.context();
+        int part = 0;
+        writer.check(exr_add_part(ctx, "", EXR_STORAGE_SCANLINE, &part));
+        writer.check(exr_initialize_required_attr_simple(ctx, part, exr_width, exr_height, EXR_COMPRESSION_ZIP));
+        for (const PlaneSource& p : planes)
+            writer.check(exr_add_channel(ctx, part, p.name.c_str(), EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1));
+        for (const auto& [name, value] : attributes)
+            writer.check(exr_attr_set_string(ctx, part, name.c_str(), value.c_str()));
+        if (chromaticities) {
+            const Chromaticities& c = *chromaticities;
+            const exr_attr_chromaticities_t chroma{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]};
+            writer.check(exr_attr_set_chromaticities(ctx, part, "chromaticities", &chroma));
+        }
+        writer.check(exr_write_header(ctx));
+
+        // The planes in the header's channel order (OpenEXR sorts channels by name).
+        const exr_attr_chlist_t* list = nullptr;
+        writer.check(exr_get_channels(ctx, part, &list));
+        std::vector<PlaneSource> ordered;
+        for (int i = 0; list && i < list->num_channels; ++i)
+            for (const PlaneSource& p : planes)
+                if (p.name == list->entries[i].name.str) ordered.push_back(p);
+        if (ordered.size() != planes.size())
+            throw InternalError(cat(display(path), ": OpenEXR kept ", ordered.size(), " of ", planes.size(), " channels"));
+
+        // Every block compressed on every core, then written in order.
+        const int blocks = (exr_height + zip_lines - 1) / zip_lines;
+        std::vector<std::vector<unsigned char>> packed(static_cast<std::size_t>(blocks));
+        const int threads = std::min(available_cpus(), blocks);
+        std::vector<Compressor> compressors;
+        std::vector<std::vector<unsigned char>> scratch(static_cast<std::size_t>(threads));
+        for (int t = 0; t < threads; ++t) {
+            compressors.emplace_back(libdeflate_alloc_compressor(deflate_level));
+            if (!compressors.back()) throw std::bad_alloc();
+        }
+        // Contiguous runs of blocks per thread: each uses its own compressor and scratch.
+        const int per_thread = (blocks + threads - 1) / threads;
+        parallel_for(threads, threads, [&](int t) {
+            for (int b = t * per_thread; b < std::min(blocks, (t + 1) * per_thread); ++b) {
+                const int y0 = b * zip_lines;
+                packed[b] = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0), compressors[t].get(), scratch[t]);
+            }
+        });
+        for (int b = 0; b < blocks; ++b)
+            writer.check(exr_write_scanline_chunk(ctx, part, b * zip_lines, packed[b].data(), packed[b].size()));
+        writer.finish();
+    }
+    out.commit();
+}
+
+} // namespace brdf::formats::detail
