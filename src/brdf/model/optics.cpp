@@ -2,7 +2,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
-#include <brdf/mie/ensemble.h>
+#include <brdf/mie/ensemble_cache.h>
 
 #include <algorithm>
 #include <cmath>
@@ -36,7 +36,10 @@ LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wa
     double sigma_s = 0.0, sigma_e = 0.0, sigma_a = 0.0;
     for (const material::PigmentSpec& pigment : layer.pigments) {
         const material::IndexSample index = pigment.index.model.at(wavelength_nm);
-        const mie::Ensemble e = mie::ensemble({index.n, index.k}, out.index, wavelength_nm, pigment.size, options);
+        // From the process's cache: a pigment recurs across the materials of a catalogue or a job.
+        const std::shared_ptr<const mie::Ensemble> shared =
+            mie::EnsembleCache::shared().get({index.n, index.k}, out.index, wavelength_nm, pigment.size, options);
+        const mie::Ensemble& e = *shared;
         PigmentOptics p;
         p.albedo = e.albedo;
         p.g = e.g;
