@@ -12,6 +12,10 @@ if(BRDF_WERROR)
 endif()
 
 # Options every project target shares. Numerics must not be reassociated: the solvers rely on IEEE
-# semantics, so there is no -ffast-math anywhere (Release keeps CMake's -O3).
+# semantics, so there is no -ffast-math anywhere (Release keeps CMake's -O3). Nor contracted: GCC
+# fuses a * b + c into one FMA wherever the target has it, in ISO C++ mode too, so the functions
+# compiled for AVX2 or AVX-512 (target_clones) would round differently from the baseline build and
+# from the OpenCL kernels (FP_CONTRACT OFF); -ffp-contract=off keeps every clone bit for bit the same.
 add_library(brdf_options INTERFACE)
 target_link_libraries(brdf_options INTERFACE brdf_warnings)
+target_compile_options(brdf_options INTERFACE $<$<CXX_COMPILER_ID:GNU,Clang>:-ffp-contract=off>)
