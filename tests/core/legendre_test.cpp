@@ -114,5 +114,54 @@ TEST(Linalg, ShiftedPencilMatchesLuForEveryShift) {
     EXPECT_THROW(ShiftedPencil(minus_d, std::vector<double>{0.5, 0.25}).solve(1.0, r), NumericalError);
 }
 
+// The shifts are solved eight side by side (vector lanes): each one's answer is the one it gets
+// alone (to rounding: BLAS multiplies one column and many in different orders), for a count that
+// is no multiple of eight, different right-hand sides and shifts that pivot differently; a
+// singular shift among others is named.
+TEST(Linalg, ShiftedPencilSolvesEachShiftAsItWouldAlone) {
+    const int n = 17, k = 19;
+    Matrix g(n, n);
+    std::vector<double> d(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+        d[i] = std::pow(10.0, -2.0 * i / (n - 1.0));
+        for (int j = 0; j < n; ++j) g(i, j) = (i == j ? 1.0 : 0.0) - 0.9 * std::cos(0.7 * i * j + 0.3 * j) / n;
+    }
+    const ShiftedPencil pencil(g, d);
+    std::vector<double> shifts(static_cast<std::size_t>(k));
+    Matrix columns(n, k);
+    for (int e = 0; e < k; ++e) {
+        shifts[e] = e % 3 == 0 ? 1e-3 * (e + 1) : 0.05 * (e + 1);
+        for (int i = 0; i < n; ++i) columns(i, e) = std::sin(1.0 + i + 0.37 * e);
+    }
+    const Matrix rhs = columns;
+    pencil.solve(shifts, columns);
+    for (int e = 0; e < k; ++e) {
+        std::vector<double> alone(static_cast<std::size_t>(n));
+        for (int i = 0; i < n; ++i) alone[i] = rhs(i, e);
+        pencil.solve(shifts[e], alone);
+        Matrix a = g;
+        a *= shifts[e];
+        for (int i = 0; i < n; ++i) a(i, i) += d[i];
+        std::vector<double> lu(static_cast<std::size_t>(n));
+        for (int i = 0; i < n; ++i) lu[i] = rhs(i, e);
+        LuFactor(std::move(a)).solve(lu);
+        for (int i = 0; i < n; ++i) {
+            EXPECT_NEAR(columns(i, e), alone[i], 1e-14 * (1.0 + std::abs(alone[i]))) << "shift " << e << " row " << i;
+            EXPECT_NEAR(columns(i, e), lu[i], 1e-11 * (1.0 + std::abs(lu[i]))) << "shift " << e << " row " << i;
+        }
+    }
+    // D + u G singular at u = 2 for G = -D / 2: the fifth of six shifts.
+    Matrix half(2, 2);
+    half(0, 0) = -0.25, half(1, 1) = -0.125;
+    const std::vector<double> bad_shifts = {0.1, 0.5, 1.0, 1.5, 2.0, 3.0};
+    Matrix ones(2, 6, 1.0);
+    try {
+        ShiftedPencil(half, std::vector<double>{0.5, 0.25}).solve(bad_shifts, ones);
+        ADD_FAILURE() << "no error for a singular shift";
+    } catch (const NumericalError& e) {
+        EXPECT_EQ(std::string(e.what()), "ShiftedPencil: singular at u = 2 (size 2)");
+    }
+}
+
 } // namespace
 } // namespace brdf::test
