@@ -10,6 +10,10 @@
 
 #include "shared/table_fill_layout.h"
 
+#if TF_ORDER_BLOCK != 8
+#error "table_fill sums a block of orders as three double8 (3 channels x 8 orders)"
+#endif
+
 #define TF_PI 3.14159265358979323846
 
 // std::clamp(v, lo, hi) (also for NaN: v < lo and hi < v are both false, v comes back).
@@ -121,14 +125,22 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         __global const double* fourier = data + p.fourier_offset;
         const int mp = (p.orders + TF_ORDER_BLOCK - 1) / TF_ORDER_BLOCK * TF_ORDER_BLOCK;
         for (int m0 = 0; m0 < p.orders; m0 += TF_ORDER_BLOCK) {
-            double acc[3 * TF_ORDER_BLOCK];
-            for (int k = 0; k < 3 * TF_ORDER_BLOCK; ++k) acc[k] = 0.0;
+            // A block's 3 x 8 sums as three double8, element for element the reference's loop over
+            // k: PoCL then vectorises within the work item (contiguous taps) instead of across work
+            // items, whose taps lie apart (a third of the time of the scalar loop, same values).
+            double8 v0 = (double8)(0.0), v1 = (double8)(0.0), v2 = (double8)(0.0);
             for (int a = 0; a < 4; ++a)
                 for (int b = 0; b < 4; ++b) {
                     const double w = so_w[a] * si_w[b];
                     __global const double* f = fourier + (((long)so_idx[a] * e + si_idx[b]) * mp + m0) * 3;
-                    for (int k = 0; k < 3 * TF_ORDER_BLOCK; ++k) acc[k] += w * f[k];
+                    v0 += w * vload8(0, f);
+                    v1 += w * vload8(1, f);
+                    v2 += w * vload8(2, f);
                 }
+            double acc[3 * TF_ORDER_BLOCK];
+            vstore8(v0, 0, acc);
+            vstore8(v1, 1, acc);
+            vstore8(v2, 2, acc);
             for (int j = 0; j < TF_ORDER_BLOCK; ++j) {
                 out0 += acc[3 * j] * cm;
                 out1 += acc[3 * j + 1] * cm;
