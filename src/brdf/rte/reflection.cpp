@@ -111,27 +111,9 @@ Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space,
         setup_rough();
         return;
     }
-    const LayerSetup& ls = m_setup.layers.back();
-    const Streams& s = ls.streams;
-    const int n = s.size();
-    const double om = ls.truncated.scaled.omega;
-    for (int m = 0; m < orders; ++m) {
-        const Matrix& x = m_half[m].x;
-        const PhasePair p = phase_components(ls.truncated.scaled.beta, m, s.mu, s.mu);
-        // G = I - (w/2) P+ W - w M X W P- W: the half-node equation is (M + u G) r = rhs(u).
-        Matrix wpw(n, n);
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) wpw(i, j) = s.w[i] * p.minus(i, j) * s.w[j];
-        const Matrix xwpw = x * wpw;
-        Matrix g = Matrix::identity(n);
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) g(i, j) -= 0.5 * om * p.plus(i, j) * s.w[j] + om * s.mu[i] * xwpw(i, j);
-        m_nystrom.emplace_back(g, s.mu);
-        Matrix minus_w = p.minus;
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) minus_w(i, j) *= s.w[j];
-        m_minus_w.push_back(std::move(minus_w));
-    }
+    // The half-space's Nystrom operators are built per order when first needed (nystrom()): a
+    // rough top never evaluates the half-space off its streams, and a probe only at a few cosines.
+    m_nystrom = std::make_shared<NystromOrders>(orders);
     setup_rough();
 }
 
@@ -208,6 +190,36 @@ double Reflection::inside(int k, double mu_air) const {
     return std::sqrt(std::max(0.0, 1.0 - (1.0 - mu_air * mu_air) / (n * n)));
 }
 
+Reflection::NystromOrders::NystromOrders(int orders)
+    : once(static_cast<std::size_t>(orders)), pencil(static_cast<std::size_t>(orders)),
+      minus_w(static_cast<std::size_t>(orders)) {}
+
+Reflection::NystromOrder Reflection::nystrom(int m) const {
+    NystromOrders& all = *m_nystrom;
+    std::call_once(all.once[m], [&] {
+        const LayerSetup& ls = m_setup.layers.back();
+        const Streams& s = ls.streams;
+        const int n = s.size();
+        const double om = ls.truncated.scaled.omega;
+        const Matrix& x = m_half[m].x;
+        const PhasePair p = phase_components(ls.truncated.scaled.beta, m, s.mu, s.mu);
+        // G = I - (w/2) P+ W - w M X W P- W: the half-node equation is (M + u G) r = rhs(u).
+        Matrix wpw(n, n);
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) wpw(i, j) = s.w[i] * p.minus(i, j) * s.w[j];
+        const Matrix xwpw = x * wpw;
+        Matrix g = Matrix::identity(n);
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) g(i, j) -= 0.5 * om * p.plus(i, j) * s.w[j] + om * s.mu[i] * xwpw(i, j);
+        all.pencil[m].emplace(g, s.mu);
+        Matrix minus_w = p.minus;
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) minus_w(i, j) *= s.w[j];
+        all.minus_w[m] = std::move(minus_w);
+    });
+    return {*all.pencil[m], all.minus_w[m]};
+}
+
 Reflector Reflection::half_space_reflector(int m, std::span<const double> u, bool with_single) const {
     // Nystrom: the equation at (mu_k, u) is linear in r_k = R^m(mu_k, u) once X is known:
     //   (mu_k + u) r_k - (w/2) u (P+ W r)_k - w u mu_k (X W P- W r)_k
@@ -232,7 +244,8 @@ Reflector Reflection::half_space_reflector(int m, std::span<const double> u, boo
     gemm(x, false, pw, true, rhs); // N x E
     for (int i = 0; i < n; ++i)
         for (int e = 0; e < ne; ++e) rhs(i, e) = 0.25 * om * (pu.minus(e, i) + 2.0 * s.mu[i] * rhs(i, e));
-    m_nystrom[m].solve(u, rhs);
+    const NystromOrder nys = nystrom(m);
+    nys.pencil.solve(u, rhs);
     for (int e = 0; e < ne; ++e)
         for (int i = 0; i < n; ++i) r.en(e, i) = rhs(i, e);
     // (w/4)[p(-u_a, u_b) + 2 u_b (Pu W Rn^T)_ab + 2 u_a (Rn W Pu^T)_ab + 4 u_a u_b (Rn W P- W Rn^T)_ab] / (u_a + u_b)
@@ -242,7 +255,7 @@ Reflector Reflection::half_space_reflector(int m, std::span<const double> u, boo
     for (int e = 0; e < ne; ++e)
         for (int k = 0; k < n; ++k) rnw(e, k) *= s.w[k], puw(e, k) *= s.w[k];
     const Matrix t2 = multiply_transposed(puw, r.en);
-    const Matrix t4 = multiply_transposed(rnw * m_minus_w[m], r.en);
+    const Matrix t4 = multiply_transposed(rnw * nys.minus_w, r.en);
     r.ee = Matrix(ne, ne);
     for (int a = 0; a < ne; ++a)
         for (int b = 0; b < ne; ++b) {

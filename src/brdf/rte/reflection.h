@@ -23,6 +23,8 @@
 #include <brdf/rte/streams.h>
 
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -170,9 +172,20 @@ private:
     double m_rough_tolerance = 1e-6;
     std::shared_ptr<const RoughKernelFamily> m_family;
     /// Half-space, per order: the Nystrom half-node equation (M + u G) r = rhs(u), with
-    /// G = I - (w/2) P+ W - w M X W P- W, reduced once for every direction u.
-    std::vector<ShiftedPencil> m_nystrom;
-    std::vector<Matrix> m_minus_w; ///< half-space, per order: P- W
+    /// G = I - (w/2) P+ W - w M X W P- W, reduced once for every direction u, and P- W; built on
+    /// first use (thread-safe), shared by copies.
+    struct NystromOrders {
+        explicit NystromOrders(int orders);
+        std::vector<std::once_flag> once;
+        std::vector<std::optional<ShiftedPencil>> pencil;
+        std::vector<Matrix> minus_w;
+    };
+    struct NystromOrder {
+        const ShiftedPencil& pencil;
+        const Matrix& minus_w;
+    };
+    NystromOrder nystrom(int m) const;
+    std::shared_ptr<NystromOrders> m_nystrom;
 };
 
 } // namespace brdf::rte
