@@ -232,10 +232,13 @@ Reflector Reflection::half_space_reflector(int m, std::span<const double> u, boo
     const int ne = static_cast<int>(u.size());
     const double om = ls.truncated.scaled.omega;
     const Matrix& x = m_half[m].x;
-    const PhasePair pu = phase_components(beta, m, u, s.mu); // E x N
     Reflector r;
     r.nn = x;
     r.en = Matrix(ne, n);
+    r.ee = Matrix(ne, ne);
+    r.spec.assign(static_cast<std::size_t>(ne), 0.0);
+    if (ne == 0) return r; // the streams alone (a rough top's adding): no Nystrom operator needed
+    const PhasePair pu = phase_components(beta, m, u, s.mu); // E x N
     // Right-hand sides, one column per direction: (w/4) [p-(mu_k, u) + 2 mu_k (X W p+(., u))_k].
     Matrix pw = pu.plus;
     for (int e = 0; e < ne; ++e)
@@ -256,13 +259,11 @@ Reflector Reflection::half_space_reflector(int m, std::span<const double> u, boo
         for (int k = 0; k < n; ++k) rnw(e, k) *= s.w[k], puw(e, k) *= s.w[k];
     const Matrix t2 = multiply_transposed(puw, r.en);
     const Matrix t4 = multiply_transposed(rnw * nys.minus_w, r.en);
-    r.ee = Matrix(ne, ne);
     for (int a = 0; a < ne; ++a)
         for (int b = 0; b < ne; ++b) {
             const double num = single(a, b) + 2.0 * u[b] * t2(a, b) + 2.0 * u[a] * t2(b, a) + 4.0 * u[a] * u[b] * t4(a, b);
             r.ee(a, b) = 0.25 * om * num / (u[a] + u[b]);
         }
-    r.spec.assign(static_cast<std::size_t>(ne), 0.0);
     return r;
 }
 
