@@ -1,5 +1,5 @@
-// Batched per-Fourier-order solvers of Ambartsumian's equation for CPU-type devices: ONE work-item
-// solves ONE order problem serially (local size 1, no barriers, no local memory). A direct port of
+// Batched per-Fourier-order solvers of Ambartsumian's equation for CPU-type devices: each work-item
+// solves order problems serially, one after another (local size 1, no barriers, no local memory). A direct port of
 // the C++ references solve_fixed_point, solve_doubling and solve_fast (src/brdf/rte/order_solver.cpp)
 // and LuFactor (src/brdf/core/linalg.cpp), operation for operation: every product element summed
 // in k order skipping zero a_ik (rows in pairs and columns in blocks of 16 and 32, in registers),
@@ -10,8 +10,9 @@
 // reference's do.
 //
 // The same task, input, output, workspace and status layouts as kernels/ambartsumian.cl
-// (shared/ambartsumian_layout.h), so the host code (src/brdf/rte/cl_solver.cpp) is shared. On a CPU
-// device the work-groups (one per problem) spread over the cores and each inner j loop vectorises;
+// (shared/ambartsumian_layout.h), so the host code (src/brdf/rte/cl_solver.cpp) is shared, but for
+// the workspace: one slot per work-item, not per task (ambartsumian_solve_serial below). On a CPU
+// device the work-groups (about one per core) spread over the cores and each inner j loop vectorises;
 // the cooperative kernel's hundreds of barrier passes per problem cost far more than they gain there.
 
 #pragma OPENCL FP_CONTRACT OFF
@@ -224,12 +225,9 @@ static void lu_solve(gcptr lu, int n, const int* piv, gptr b, int ldb, int cols)
     }
 }
 
-/// One work-item per task (local size 1): tasks[get_global_id(0)] solved by its method; X to output,
-/// the outcome to status.
-__kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global const double* input,
-                                        __global double* output, __global double* workspace,
-                                        __global AmbStatus* status) {
-    const int id = (int)get_global_id(0);
+/// tasks[id] solved by its method in the workspace `ws`; X to output, the outcome to status.
+static void solve_task(__global const AmbTask* tasks, __global const double* input, __global double* output,
+                       gptr ws, __global AmbStatus* status, int id) {
     const AmbTask task = tasks[id];
     const int n = task.n;
     const int n2 = n * n;
@@ -239,7 +237,6 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
     gcptr phase_plus = w + n;
     gcptr phase_minus = phase_plus + n2;
     gptr x_out = output + task.output_offset;
-    gptr ws = workspace + task.workspace_offset;
     const double g = task.gamma;
     int piv[AMB_MAX_N];
 
@@ -434,4 +431,19 @@ __kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global 
     status[id].converged = converged;
     status[id].error = error;
     status[id].detail = detail;
+}
+
+/// A few work-items (local size 1, about one per core), each taking the next unsolved task from the
+/// counter `next` until all `count` are done, in its own workspace slot of `slot_doubles` (the
+/// largest task's AMB_WORKSPACE_MATRICES n x n). A slot is reused task after task, so it stays in
+/// the core's cache and its pages are touched once, where one slot per task (what the cooperative
+/// kernel's layout gives, tasks[].workspace_offset) faulted in hundreds of MB per batch; the atomic
+/// counter balances tasks of unequal cost (order 0 against the high orders). Each task is solved
+/// as before, whatever slot or order it is taken in: the results do not change.
+__kernel void ambartsumian_solve_serial(__global const AmbTask* tasks, __global const double* input,
+                                        __global double* output, __global double* workspace,
+                                        __global AmbStatus* status, __global int* next, int count,
+                                        long slot_doubles) {
+    gptr ws = workspace + (long)get_global_id(0) * slot_doubles;
+    for (int id = atomic_inc(next); id < count; id = atomic_inc(next)) solve_task(tasks, input, output, ws, status, id);
 }

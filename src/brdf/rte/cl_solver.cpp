@@ -8,6 +8,7 @@
 
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
+#include <brdf/core/threads.h>
 #include <brdf/core/log.h>
 
 #include <shared/ambartsumian_layout.h>
@@ -82,7 +83,9 @@ template <typename T>
 }
 
 // One launch over problems[first, last).
-void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, std::size_t local_size,
+// `serial`: the serial kernel, whose work-items take tasks from a counter, each in its own
+// workspace slot (kernels/ambartsumian_serial.cl); otherwise one slot per task.
+void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, bool serial, std::size_t local_size,
                  std::span<const OrderProblem> problems, std::size_t first, std::size_t last, Method method,
                  const SolveControl& control, std::vector<OrderSolution>& out) {
     const std::size_t count = last - first;
@@ -124,6 +127,14 @@ void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, std::size_t local
     ::cl::Buffer in_buf = make_buffer(context, CL_MEM_READ_ONLY, input, "input");
     ::cl::Buffer out_buf(context, CL_MEM_WRITE_ONLY, out_size * sizeof(double), nullptr, &err);
     brdf::cl::check(err, "OpenCL order solver: create buffer output");
+    // The serial kernel: about one work-item per core (a few more than cores would only queue), each
+    // with a slot the size of the largest task's workspace.
+    std::size_t work_items = count * local_size, slot_doubles = 0;
+    if (serial) {
+        for (const AmbTask& t : tasks) slot_doubles = std::max(slot_doubles, workspace_doubles(t.n));
+        work_items = std::min<std::size_t>(count, std::max<cl_uint>(1, ctx.info().compute_units));
+        ws_size = work_items * slot_doubles;
+    }
     ::cl::Buffer ws_buf(context, CL_MEM_READ_WRITE, ws_size * sizeof(double), nullptr, &err);
     brdf::cl::check(err, "OpenCL order solver: create buffer workspace");
     ::cl::Buffer status_buf(context, CL_MEM_WRITE_ONLY, count * sizeof(AmbStatus), nullptr, &err);
@@ -134,9 +145,17 @@ void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, std::size_t local
     brdf::cl::check(kernel.setArg(2, out_buf), "OpenCL order solver: set argument output");
     brdf::cl::check(kernel.setArg(3, ws_buf), "OpenCL order solver: set argument workspace");
     brdf::cl::check(kernel.setArg(4, status_buf), "OpenCL order solver: set argument status");
+    std::vector<cl_int> next{0};
+    ::cl::Buffer next_buf;
+    if (serial) {
+        next_buf = make_buffer(context, CL_MEM_READ_WRITE, next, "task counter");
+        brdf::cl::check(kernel.setArg(5, next_buf), "OpenCL order solver: set argument task counter");
+        brdf::cl::check(kernel.setArg(6, static_cast<cl_int>(count)), "OpenCL order solver: set argument count");
+        brdf::cl::check(kernel.setArg(7, static_cast<cl_long>(slot_doubles)), "OpenCL order solver: set argument slot");
+    }
 
     ::cl::CommandQueue& queue = ctx.queue();
-    brdf::cl::check(queue.enqueueNDRangeKernel(kernel, ::cl::NullRange, ::cl::NDRange(count * local_size),
+    brdf::cl::check(queue.enqueueNDRangeKernel(kernel, ::cl::NullRange, ::cl::NDRange(work_items),
                                                ::cl::NDRange(local_size)),
                     "OpenCL order solver: run the order kernel");
     std::vector<double> output(out_size);
@@ -163,15 +182,19 @@ void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, std::size_t local
         default:
             throw DeviceError(cat("OpenCL order solver: unknown status ", st.error, " for order ", p.m));
         }
+    }
+    // The solutions and their residuals (a few n^3 each, on the host): one problem per core.
+    parallel_for(static_cast<int>(count), available_cpus(), [&](int k) {
+        const OrderProblem& p = problems[first + k];
         const int n = p.streams.size();
         OrderSolution s;
         s.x = Matrix(n, n);
         std::copy_n(output.begin() + tasks[k].output_offset, static_cast<std::size_t>(n) * n, s.x.data().begin());
-        s.iterations = st.iterations;
-        s.converged = st.converged != 0;
+        s.iterations = status[k].iterations;
+        s.converged = status[k].converged != 0;
         s.residual = riccati_residual(riccati_matrices(p), s.x);
         out[first + k] = std::move(s);
-    }
+    });
 }
 
 ClSolverKernel resolve_on(brdf::cl::Context& ctx, ClSolverKernel requested) {
@@ -264,7 +287,7 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
                                    : std::min<std::size_t>(static_cast<std::size_t>(max_alloc), cap);
     // Launches whose workspace fits one allocation.
     for (const auto& [first, last] : launch_ranges(problems, budget))
-        solve_range(*ctx, kernel, local_size, problems, first, last, method, control, out);
+        solve_range(*ctx, kernel, serial, local_size, problems, first, last, method, control, out);
     return out;
 }
 
