@@ -4,6 +4,7 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/threads.h>
 
 #include <bit>
 #include <cmath>
@@ -121,16 +122,18 @@ void write_merl(const std::filesystem::path& path, const BrdfTable& table) {
     unsigned char header[header_size];
     for (std::size_t d = 0; d < 3; ++d) store_i32_le(header + 4 * d, merl_dims[d]);
     out.write_at(0, header, header_size);
-    std::vector<double> plane(cells);
-    for (int c = 0; c < 3; ++c) {
+    // The planes at once, each on its own thread: copying 35 MB into the page cache is most of the
+    // write, and one thread left the other cores idle (a MERL table alone is a material's output).
+    parallel_for(3, available_cpus(), [&](int c) {
         const std::vector<double>& values = table.channels[c];
+        std::vector<double> plane(cells);
         for (std::size_t cell = 0; cell < cells; ++cell)
             plane[cell] = cell_below_horizon(cell) || !table.has_data(cell)
                               ? -1.0
                               : values[cell] / merl_scales[c];
         to_or_from_little_endian(plane);
         out.write_at(header_size + c * plane_bytes, plane.data(), plane_bytes);
-    }
+    });
     out.commit();
 }
 

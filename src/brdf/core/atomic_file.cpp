@@ -65,7 +65,8 @@ void AtomicFile::write_at(std::uint64_t offset, const void* data, std::size_t n)
         }
         done += static_cast<std::size_t>(k);
     }
-    m_end = std::max(m_end, offset + n);
+    for (std::uint64_t end = m_end.load(); end < offset + n && !m_end.compare_exchange_weak(end, offset + n);) {
+    }
 }
 
 void AtomicFile::commit() {

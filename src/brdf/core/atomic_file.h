@@ -17,6 +17,7 @@
 //
 // Errors are IoError naming the target and the system's reason.
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -41,7 +42,8 @@ public:
 
     /// Appends `data` at the end of what write() has written so far.
     void write(std::string_view data);
-    /// Writes all `n` bytes at `offset` (pwrite: does not move write()'s position).
+    /// Writes all `n` bytes at `offset` (pwrite: does not move write()'s position). Several threads
+    /// may write disjoint ranges at once.
     void write_at(std::uint64_t offset, const void* data, std::size_t n);
     /// fsync the temporary, rename it over the target, fsync the folder. Throws IoError naming the
     /// target when any step up to the rename fails (the destructor then removes the temporary); a
@@ -52,7 +54,7 @@ private:
     std::filesystem::path m_target;
     std::filesystem::path m_temp;
     int m_fd = -1;
-    std::uint64_t m_end = 0; ///< where the next write() goes
+    std::atomic<std::uint64_t> m_end{0}; ///< where the next write() goes: the end of all written
     bool m_committed = false;
 };
 
