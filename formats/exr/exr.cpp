@@ -8,7 +8,6 @@
 
 #include <formats/exr/zip_writer.h>
 
-#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <string_view>
@@ -125,13 +124,6 @@ BrdfTable read_exr(const std::filesystem::path& path) {
 
 void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
     check_table(table, display(path));
-    // float32 planes; no data (-1) and cells below the horizon are written as 0 (write_zip_table).
-    std::array<std::vector<float>, 3> planes;
-    for (int c = 0; c < 3; ++c) {
-        planes[c].resize(cells);
-        std::transform(table.channels[c].begin(), table.channels[c].end(), planes[c].begin(),
-                       [](double v) { return static_cast<float>(v); });
-    }
     std::size_t no_data_above_horizon = 0;
     for (std::size_t cell = 0; cell < cells; ++cell)
         no_data_above_horizon += !cell_below_horizon(cell) && !table.has_data(cell);
@@ -146,7 +138,8 @@ void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
         log::warn(display(path), ": unknown colour space \"", colorspace,
                   "\" (rec709, acescg, rec2020): no chromaticities attribute written");
     std::vector<detail::PlaneSource> sources;
-    for (int c = 0; c < 3; ++c) sources.push_back({channel_names[c], planes[c].data()});
+    // Rounded to float32 as the blocks are made; no data (-1) and cells below the horizon are 0.
+    for (int c = 0; c < 3; ++c) sources.push_back({channel_names[c], nullptr, table.channels[c].data()});
     detail::write_zip_table(path, sources,
                             {{"brdf.layout", exr_layout},
                              {"brdf.units", exr_units},

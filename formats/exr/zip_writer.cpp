@@ -47,7 +47,7 @@ std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int
         const std::size_t first = static_cast<std::size_t>(y) * exr_width;
         for (const PlaneSource& p : planes) {
             for (int x = 0; x < exr_width; ++x) {
-                const float v = p.data[first + x];
+                const float v = p.data ? p.data[first + x] : static_cast<float>(p.doubles[first + x]);
                 const float stored = v >= 0.0f && !cell_below_horizon(first + x) ? v : 0.0f;
                 std::uint32_t bits;
                 std::memcpy(&bits, &stored, sizeof bits);

@@ -21,11 +21,13 @@
 
 namespace brdf::formats::detail {
 
-/// One float channel of a table image: its name and its exr_width x exr_height plane. A value
-/// below 0 (no data) and every cell below the horizon are written as 0.
+/// One float channel of a table image: its name and its exr_width x exr_height plane, of floats or
+/// of doubles (rounded to float as written). A value below 0 (no data) and every cell below the
+/// horizon are written as 0.
 struct PlaneSource {
     std::string name;
     const float* data = nullptr;
+    const double* doubles = nullptr; ///< when data is null
 };
 
 /// Writes the planes as one ZIP scanline part of exr_width x exr_height FLOAT channels, with the

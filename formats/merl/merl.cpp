@@ -9,6 +9,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <span>
 #include <vector>
 
 namespace brdf::formats {
@@ -41,7 +42,7 @@ void store_i32_le(unsigned char* p, std::int32_t value) {
 }
 
 // The planes are read into and written from doubles in place; only a big-endian host swaps.
-void to_or_from_little_endian(std::vector<double>& values) {
+void to_or_from_little_endian(std::span<double> values) {
     if constexpr (std::endian::native == std::endian::big) {
         for (double& d : values)
             d = std::bit_cast<double>(byte_swap(std::bit_cast<std::uint64_t>(d)));
@@ -122,17 +123,26 @@ void write_merl(const std::filesystem::path& path, const BrdfTable& table) {
     unsigned char header[header_size];
     for (std::size_t d = 0; d < 3; ++d) store_i32_le(header + 4 * d, merl_dims[d]);
     out.write_at(0, header, header_size);
-    // The planes at once, each on its own thread: copying 35 MB into the page cache is most of the
-    // write, and one thread left the other cores idle (a MERL table alone is a material's output).
-    parallel_for(3, available_cpus(), [&](int c) {
-        const std::vector<double>& values = table.channels[c];
-        std::vector<double> plane(cells);
-        for (std::size_t cell = 0; cell < cells; ++cell)
-            plane[cell] = cell_below_horizon(cell) || !table.has_data(cell)
-                              ? -1.0
-                              : values[cell] / merl_scales[c];
-        to_or_from_little_endian(plane);
-        out.write_at(header_size + c * plane_bytes, plane.data(), plane_bytes);
+    // Converted and written a block at a time on every core: copying 35 MB into the page cache is
+    // most of the write, one thread left the other cores idle (a MERL table alone is a material's
+    // output), and a block-sized buffer per thread stays in its cache where whole planes were 35 MB
+    // of fresh pages.
+    constexpr std::size_t block = std::size_t{1} << 16; // cells
+    constexpr std::size_t blocks_per_plane = (cells + block - 1) / block;
+    const int threads = std::min(available_cpus(), static_cast<int>(3 * blocks_per_plane));
+    parallel_for(threads, threads, [&](int t) {
+        std::vector<double> buffer(block);
+        for (std::size_t b = static_cast<std::size_t>(t); b < 3 * blocks_per_plane; b += static_cast<std::size_t>(threads)) {
+            const int c = static_cast<int>(b / blocks_per_plane);
+            const std::size_t first = (b % blocks_per_plane) * block, count = std::min(block, cells - first);
+            const std::vector<double>& values = table.channels[c];
+            for (std::size_t k = 0; k < count; ++k) {
+                const std::size_t cell = first + k;
+                buffer[k] = cell_below_horizon(cell) || !table.has_data(cell) ? -1.0 : values[cell] / merl_scales[c];
+            }
+            to_or_from_little_endian(std::span<double>(buffer.data(), count));
+            out.write_at(header_size + c * plane_bytes + first * sizeof(double), buffer.data(), count * sizeof(double));
+        }
     });
     out.commit();
 }
