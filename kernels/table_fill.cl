@@ -55,11 +55,14 @@ static double cubic_table(__global const double* table, int points, double x) {
     return w[0] * v[0] + w[1] * v[1] + w[2] * v[2] + w[3] * v[3];
 }
 
-// table_fill.cpp: cubic_rgb_table, cubic_table for a table of RGB triples.
-static void cubic_rgb_table(__global const double* table, int points, double x, double out[3]) {
+// table_fill.cpp: cubic_rgb_table, cubic_table for a table of RGB triples or (channels 1) of single
+// values, then in all three.
+static void cubic_rgb_table(__global const double* table, int points, int channels, double x, double out[3]) {
     double w[4];
-    __global const double* v = table + 3 * (long)cubic_taps(points, x, w);
-    for (int c = 0; c < 3; ++c) out[c] = w[0] * v[c] + w[1] * v[3 + c] + w[2] * v[6 + c] + w[3] * v[9 + c];
+    __global const double* v = table + channels * (long)cubic_taps(points, x, w);
+    for (int c = 0; c < channels; ++c)
+        out[c] = w[0] * v[c] + w[1] * v[channels + c] + w[2] * v[2 * channels + c] + w[3] * v[3 * channels + c];
+    if (channels == 1) out[1] = out[2] = out[0];
 }
 
 // table_fill.cpp: smith_lambda (Walter et al. 2007, G1 of eqs. 34 and 27).
@@ -124,7 +127,25 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
         __global const double* fourier = data + p.fourier_offset;
         const int mp = (p.orders + TF_ORDER_BLOCK - 1) / TF_ORDER_BLOCK * TF_ORDER_BLOCK;
-        for (int m0 = 0; m0 < p.orders; m0 += TF_ORDER_BLOCK) {
+        // A grey table: one channel, one double8 per block, copied to all three.
+        for (int m0 = 0; p.channels == 1 && m0 < p.orders; m0 += TF_ORDER_BLOCK) {
+            double8 v0 = (double8)(0.0);
+            for (int a = 0; a < 4; ++a)
+                for (int b = 0; b < 4; ++b) {
+                    const double w = so_w[a] * si_w[b];
+                    v0 += w * vload8(0, fourier + (((long)so_idx[a] * e + si_idx[b]) * mp + m0));
+                }
+            double acc[TF_ORDER_BLOCK];
+            vstore8(v0, 0, acc);
+            for (int j = 0; j < TF_ORDER_BLOCK; ++j) {
+                out0 += acc[j] * cm;
+                const double next = 2.0 * c1 * cm - cm_prev;
+                cm_prev = cm;
+                cm = next;
+            }
+        }
+        if (p.channels == 1) out1 = out2 = out0;
+        for (int m0 = 0; p.channels == 3 && m0 < p.orders; m0 += TF_ORDER_BLOCK) {
             // A block's 3 x 8 sums as three double8, element for element the reference's loop over
             // k: PoCL then vectorises within the work item (contiguous taps) instead of across work
             // items, whose taps lie apart (a third of the time of the scalar loop, same values).
@@ -166,7 +187,7 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             const double v = factor / (uo + ui) * slab;
             double phase[3];
             const double u = sqrt(0.5 * (1.0 - cos_scatter)) - sqrt(0.5 * (1.0 + cos_scatter));
-            cubic_rgb_table(data + p.phase_offset + (long)s * kp * 3, kp, 0.5 * (u + 1.0), phase);
+            cubic_rgb_table(data + p.phase_offset + (long)s * kp * p.channels, kp, p.channels, 0.5 * (u + 1.0), phase);
             out0 += v * phase[0];
             out1 += v * phase[1];
             out2 += v * phase[2];

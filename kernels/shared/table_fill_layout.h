@@ -15,12 +15,12 @@
 /// formats::BrdfTable::no_data
 #define TF_NO_DATA (-1.0)
 /// brdf::model::fill_order_block: the Fourier orders of one grid node are stored in blocks of this
-/// many (the last padded with zeros), each order's three channels together.
+/// many (the last padded with zeros), each order's channels (FillParams::channels) together.
 #define TF_ORDER_BLOCK 8
 
 typedef struct FillParams {
-    brdf_i64 fourier_offset;      ///< FillInputs::fourier, grid * grid * padded orders * 3
-    brdf_i64 phase_offset;        ///< FillInputs::phase, samples * phase_points * 3
+    brdf_i64 fourier_offset;      ///< FillInputs::fourier, grid * grid * padded orders * channels
+    brdf_i64 phase_offset;        ///< FillInputs::phase, samples * phase_points * channels
     brdf_i64 refractive_index_offset; ///< FillInputs::refractive_index, samples
     brdf_i64 transmission_offset; ///< FillInputs::transmission, samples * fresnel_points
     brdf_i64 geometry_offset;     ///< sin and cos of the bin centres: theta_h (90 pairs), theta_d (90), phi_d (180)
@@ -31,7 +31,7 @@ typedef struct FillParams {
     brdf_i32 samples;             ///< S
     brdf_i32 phase_points;        ///< K
     brdf_i32 fresnel_points;      ///< F
-    brdf_i32 pad;
+    brdf_i32 channels;            ///< FillInputs::channels: 3, or 1 for a grey table (every channel the same)
     brdf_i64 lobe_fresnel_offset; ///< FillInputs::lobe_fresnel, 3 * lobe_points
     brdf_f64 lobe_alpha;          ///< FillInputs::lobe_alpha
     brdf_i32 lobe;                ///< FillInputs::Lobe: 0 none, 1 GGX, 2 Beckmann

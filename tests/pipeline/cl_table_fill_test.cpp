@@ -77,6 +77,11 @@ void compare_tables(const formats::BrdfTable& device, const formats::BrdfTable& 
                 worst_cell, ix.theta_h, ix.theta_d, ix.phi_d, worst_value);
 }
 
+std::string rough(const char* spec, const char* surface) {
+    std::string text(spec);
+    return text.insert(text.rfind('}'), cat(", \"surface\": ", surface));
+}
+
 class ClTableFill : public ::testing::Test {
 protected:
     void SetUp() override {
@@ -88,6 +93,46 @@ TEST_F(ClTableFill, AnalyticMediumMatchesReference) {
     const model::SolvedMaterial m = model::solve_material(spec_from(hg_medium), model::Device::Cpu);
     const model::FillInputs in = model::prepare_fill(m);
     compare_tables(model::fill_table_opencl(in), model::fill_table_cpu(in, 2));
+}
+
+// A grey medium is filled in one channel (FillInputs::channels 1): the same table, bit for bit, as
+// the three-channel fill of the same inputs, on the device and in the C++ reference, with orders,
+// single scattering and a rough top's lobe.
+model::FillInputs three_channels(const model::FillInputs& grey) {
+    model::FillInputs in = grey;
+    in.channels = 3;
+    const auto triple = [](const std::vector<double>& one) {
+        std::vector<double> three;
+        for (double v : one) three.insert(three.end(), {v, v, v});
+        return three;
+    };
+    in.fourier = triple(grey.fourier);
+    in.phase = triple(grey.phase);
+    return in;
+}
+
+void expect_identical(const formats::BrdfTable& a, const formats::BrdfTable& b) {
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(a.channels[c], b.channels[c]) << "channel " << c;
+}
+
+TEST_F(ClTableFill, GreyMediumIsFilledInOneChannel) {
+    for (const char* surface : {"\"none\"", "\"smooth\"", "\"satin\""}) {
+        SCOPED_TRACE(surface);
+        const std::string text = rough(R"({"name": "grey", "medium": {"albedo": 0.95, "index": 1.5,
+            "phase": {"type": "henyey_greenstein", "g": 0.6}}, "accuracy": "draft"})", surface);
+        const model::SolvedMaterial m = model::solve_material(spec_from(text), model::Device::Cpu);
+        const model::FillInputs in = model::prepare_fill(m);
+        ASSERT_EQ(in.channels, 1);
+        const model::FillInputs wide = three_channels(in);
+        const formats::BrdfTable grey_device = model::fill_table_opencl(in);
+        expect_identical(grey_device, model::fill_table_opencl(wide));
+        const formats::BrdfTable grey_reference = model::fill_table_cpu(in, 2);
+        expect_identical(grey_reference, model::fill_table_cpu(wide, 2));
+        compare_tables(grey_device, grey_reference, 1e-11);
+        EXPECT_EQ(grey_device.channels[0], grey_device.channels[2]);
+    }
+    // A coloured medium keeps its three channels.
+    EXPECT_EQ(model::prepare_fill(model::solve_material(spec_from(hg_medium), model::Device::Cpu)).channels, 3);
 }
 
 TEST_F(ClTableFill, ParticulateMaterialMatchesReference) {
@@ -109,10 +154,6 @@ TEST_F(ClTableFill, SpectralPaintWithSharedSingleScatteringMatchesReference) {
     compare_tables(model::fill_table_opencl(in), model::fill_table_cpu(in, 2));
 }
 
-std::string rough(const char* spec, const char* surface) {
-    std::string text(spec);
-    return text.insert(text.rfind('}'), cat(", \"surface\": ", surface));
-}
 
 TEST_F(ClTableFill, GlossPaintMatchesReference) {
     const model::SolvedMaterial m =

@@ -34,7 +34,7 @@ static_assert(offsetof(FillParams, orders) == 60);
 static_assert(offsetof(FillParams, samples) == 64);
 static_assert(offsetof(FillParams, phase_points) == 68);
 static_assert(offsetof(FillParams, fresnel_points) == 72);
-static_assert(offsetof(FillParams, pad) == 76);
+static_assert(offsetof(FillParams, channels) == 76);
 static_assert(offsetof(FillParams, lobe_fresnel_offset) == 80);
 static_assert(offsetof(FillParams, lobe_alpha) == 88);
 static_assert(offsetof(FillParams, lobe) == 96);
@@ -65,8 +65,11 @@ void validate(const FillInputs& in) {
                              in.fresnel_points, " points (at least 5 each)"));
     const auto e = static_cast<std::size_t>(std::max(0, in.grid));
     const auto s = static_cast<std::size_t>(in.samples);
-    require_size(in.fourier.size(), static_cast<std::size_t>(padded_orders(in.orders)) * 3 * e * e, "fourier");
-    require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)) * 3, "phase");
+    if (in.channels != 1 && in.channels != 3)
+        throw InputError(cat("OpenCL table fill: ", in.channels, " channels (1 or 3)"));
+    const auto c = static_cast<std::size_t>(in.channels);
+    require_size(in.fourier.size(), static_cast<std::size_t>(padded_orders(in.orders)) * c * e * e, "fourier");
+    require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)) * c, "phase");
     require_size(in.refractive_index.size(), s, "refractive_index");
     require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");
     require_size(in.tau.size(), s, "tau");
@@ -123,7 +126,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     params.samples = in.samples;
     params.phase_points = in.phase_points;
     params.fresnel_points = in.fresnel_points;
-    params.pad = 0;
+    params.channels = in.channels;
     params.lobe_alpha = in.lobe_alpha;
     params.lobe = static_cast<brdf_i32>(in.lobe);
     params.lobe_separable = in.lobe_separable ? 1 : 0;

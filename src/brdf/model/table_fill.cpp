@@ -82,13 +82,14 @@ double cubic_table(const double* table, int points, double x) {
     return c.w[0] * v[0] + c.w[1] * v[1] + c.w[2] * v[2] + c.w[3] * v[3];
 }
 
-// cubic_table for a table of RGB triples.
-Rgb cubic_rgb_table(const double* table, int points, double x) {
+// cubic_table for a table of RGB triples, or of single values (channels 1: the value in all three).
+Rgb cubic_rgb_table(const double* table, int points, int channels, double x) {
     const CubicTaps c = cubic_taps(points, x);
-    const double* v = table + 3 * static_cast<std::size_t>(c.k);
+    const double* v = table + channels * static_cast<std::size_t>(c.k);
     Rgb out{};
-    for (int ch = 0; ch < 3; ++ch)
-        out[ch] = c.w[0] * v[ch] + c.w[1] * v[3 + ch] + c.w[2] * v[6 + ch] + c.w[3] * v[9 + ch];
+    for (int ch = 0; ch < channels; ++ch)
+        out[ch] = c.w[0] * v[ch] + c.w[1] * v[channels + ch] + c.w[2] * v[2 * channels + ch] + c.w[3] * v[3 * channels + ch];
+    if (channels == 1) out[1] = out[2] = out[0];
     return out;
 }
 
@@ -108,7 +109,8 @@ void add_single_scattering(const FillInputs& in, double mu_i, double mu_o, doubl
         const double slab = std::isinf(in.tau[s]) ? 1.0 : -std::expm1(-in.tau[s] * (1.0 / uo + 1.0 / ui));
         const double v = factor / (uo + ui) * slab;
         const double u = std::sqrt(0.5 * (1.0 - cos_scatter)) - std::sqrt(0.5 * (1.0 + cos_scatter));
-        const Rgb phase = cubic_rgb_table(&in.phase[static_cast<std::size_t>(s) * kp * 3], kp, 0.5 * (u + 1.0));
+        const Rgb phase =
+            cubic_rgb_table(&in.phase[static_cast<std::size_t>(s) * kp * in.channels], kp, in.channels, 0.5 * (u + 1.0));
         for (int c = 0; c < 3; ++c) out[c] += v * phase[c];
     }
 }
@@ -223,12 +225,13 @@ void append_term(FillInputs& in, const SingleScatteringTerm& geometry,
                  const std::vector<const SingleScatteringTerm*>& sources, const std::vector<Rgb>& weights) {
     in.phase_points = phase_table_points;
     in.fresnel_points = fresnel_table_points;
+    const int channels = in.channels;
     const std::size_t base = in.phase.size();
-    in.phase.resize(base + 3 * static_cast<std::size_t>(phase_table_points), 0.0);
+    in.phase.resize(base + channels * static_cast<std::size_t>(phase_table_points), 0.0);
     for (std::size_t k = 0; k < sources.size(); ++k)
         for (int p = 0; p < phase_table_points; ++p)
-            for (int c = 0; c < 3; ++c)
-                in.phase[base + 3 * static_cast<std::size_t>(p) + c] += weights[k][c] * sources[k]->phase[p];
+            for (int c = 0; c < channels; ++c)
+                in.phase[base + channels * static_cast<std::size_t>(p) + c] += weights[k][c] * sources[k]->phase[p];
     in.refractive_index.push_back(geometry.index);
     in.tau.push_back(geometry.tau);
     in.transmission.insert(in.transmission.end(), geometry.transmission.begin(), geometry.transmission.end());
@@ -295,6 +298,7 @@ double probe_error(const std::vector<Probe>& probes, const FillInputs& shared) {
 void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, double tolerance, FillInputs& in) {
     const std::size_t count = terms.size();
     FillInputs exact;
+    exact.channels = in.channels;
     for (const SingleScatteringTerm& t : terms) append_term(exact, t, {&t}, {t.weight});
     const bool half_space = std::all_of(terms.begin(), terms.end(),
                                         [](const SingleScatteringTerm& t) { return t.top_layer && std::isinf(t.tau); });
@@ -313,6 +317,7 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
         return;
     }
     FillInputs scale;
+    scale.channels = in.channels;
     for (const SingleScatteringTerm& t : terms)
         append_term(scale, t, {&t}, {Rgb{std::abs(t.weight[0]), std::abs(t.weight[1]), std::abs(t.weight[2])}});
     const std::vector<Probe> probes = probe_set(exact, scale);
@@ -336,6 +341,7 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
                 weights[j].push_back(Rgb{l[j] * t.weight[0], l[j] * t.weight[1], l[j] * t.weight[2]});
         }
         FillInputs shared;
+        shared.channels = in.channels;
         for (std::size_t j = 0; j < node.size(); ++j) append_term(shared, terms[node[j]], all, weights[j]);
         const double error = probe_error(probes, shared);
         if (error <= 0.01 * tolerance) {
@@ -355,7 +361,11 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
     in.grid = e;
     for (std::size_t k : which) in.orders = std::max(in.orders, material.samples[k].reflection.orders());
     const int mp = padded_orders(in.orders);
-    in.fourier.assign(static_cast<std::size_t>(mp) * 3 * e * e, 0.0);
+    // A grey material (every colour weight the same in all channels) is filled in one channel.
+    const bool grey = std::all_of(weights.begin(), weights.end(), [](const Rgb& w) { return w[0] == w[1] && w[1] == w[2]; });
+    in.channels = grey ? 1 : 3;
+    const int channels = in.channels;
+    in.fourier.assign(static_cast<std::size_t>(mp) * channels * e * e, 0.0);
     // The orders in colour from each sample's Nystrom grid at the table's zenith angles (the
     // expensive part of the fill's preparation), a few samples at a time: a grid holds E^2 M
     // doubles, 14 MB at "reference", where keeping all 41 of the visible held 590 MB. The samples
@@ -377,9 +387,9 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
                 for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
                     const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::numbers::inv_pi;
                     for (int i = 0; i < e; ++i) {
-                        double* dst = &in.fourier[((static_cast<std::size_t>(o) * e + i) * mp + m) * 3];
+                        double* dst = &in.fourier[((static_cast<std::size_t>(o) * e + i) * mp + m) * channels];
                         const double v = factor * g.orders[m](o, i);
-                        for (int c = 0; c < 3; ++c) dst[c] += weight[c] * v;
+                        for (int c = 0; c < channels; ++c) dst[c] += weight[c] * v;
                     }
                 }
             }
@@ -483,24 +493,32 @@ Rgb cell_value(const FillInputs& in, const CellDirections& d) {
     const double c1 = d.cos_phi;
     double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
     const int mp = padded_orders(in.orders);
-    constexpr int block = 3 * fill_order_block;
     Stencil so{}, si{};
     if (in.orders > 0) so = stencil(d.theta_o, e), si = stencil(d.theta_i, e);
-    for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
-        double acc[block] = {};
-        for (int a = 0; a < 4; ++a)
-            for (int b = 0; b < 4; ++b) {
-                const double w = so.w[a] * si.w[b];
-                const double* f =
-                    &in.fourier[((static_cast<std::size_t>(so.idx[a]) * e + si.idx[b]) * mp + m0) * 3];
-                for (int k = 0; k < block; ++k) acc[k] += w * f[k];
+    const auto orders = [&]<int C> { // C channels per order
+        constexpr int block = C * fill_order_block;
+        for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
+            double acc[block] = {};
+            for (int a = 0; a < 4; ++a)
+                for (int b = 0; b < 4; ++b) {
+                    const double w = so.w[a] * si.w[b];
+                    const double* f =
+                        &in.fourier[((static_cast<std::size_t>(so.idx[a]) * e + si.idx[b]) * mp + m0) * C];
+                    for (int k = 0; k < block; ++k) acc[k] += w * f[k];
+                }
+            for (int j = 0; j < fill_order_block; ++j) {
+                for (int c = 0; c < C; ++c) out[c] += acc[C * j + c] * cm;
+                const double next = 2.0 * c1 * cm - cm_prev;
+                cm_prev = cm;
+                cm = next;
             }
-        for (int j = 0; j < fill_order_block; ++j) {
-            for (int c = 0; c < 3; ++c) out[c] += acc[3 * j + c] * cm;
-            const double next = 2.0 * c1 * cm - cm_prev;
-            cm_prev = cm;
-            cm = next;
         }
+    };
+    if (in.channels == 1) {
+        orders.template operator()<1>();
+        out[1] = out[2] = out[0];
+    } else {
+        orders.template operator()<3>();
     }
     add_single_scattering(in, mu_i, mu_o, c1, out);
     for (double& v : out) v = std::max(0.0, v);

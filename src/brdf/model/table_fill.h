@@ -32,7 +32,11 @@ constexpr int padded_orders(int orders) {
 struct FillInputs {
     int grid = 0;   ///< E: zenith angles theta_a = a / (E - 1) * 90 degrees, a = 0 .. E - 1
     int orders = 0; ///< M
-    /// fourier[((o * E + i) * padded_orders(M) + m) * 3 + c]: (2 - delta_m0) (-1)^m R^m_c(theta_o,
+    /// C: 3 (red, green, blue), or 1 when every sample's colour weight is grey (an analytic grey
+    /// medium): then fourier and phase hold one value where they hold three, and the table's three
+    /// channels are equal (the fill computes one and copies it: a third of the work).
+    int channels = 3;
+    /// fourier[((o * E + i) * padded_orders(M) + m) * C + c]: (2 - delta_m0) (-1)^m R^m_c(theta_o,
     /// theta_i) / pi in 1/sr, interface factors included, single scattering on the direct paths
     /// removed; orders M .. padded_orders(M) - 1 are 0. Every order and channel of one grid node lie
     /// together, in blocks of fill_order_block orders: a cell's interpolation is then 16 taps of
@@ -43,7 +47,7 @@ struct FillInputs {
     /// in their binder index, one per node of an interpolation in that index (table_fill.cpp:
     /// share_single_scattering), which is exact to 1 % of the tolerance on a probe set.
     int samples = 0;
-    /// K: phase[(s * K + k) * 3 + c] = w_s,c (albedo_s / 4) p_s at u = sin(Theta/2) - cos(Theta/2) =
+    /// K: phase[(s * K + k) * C + c] = w_s,c (albedo_s / 4) p_s at u = sin(Theta/2) - cos(Theta/2) =
     /// 2 (k - 1) / (K - 3) - 1:
     /// the term's phase table, colour weights included, interpolated by Catmull-Rom (one ghost point
     /// beyond each end).
