@@ -1,13 +1,13 @@
 // Batched per-Fourier-order solvers of Ambartsumian's equation for CPU-type devices: each work-item
-// solves order problems serially, one after another (local size 1, no barriers, no local memory). A direct port of
-// the C++ references solve_fixed_point, solve_doubling and solve_fast (src/brdf/rte/order_solver.cpp)
-// and LuFactor (src/brdf/core/linalg.cpp), operation for operation: every product element summed
-// in k order skipping zero a_ik (rows in pairs and columns in blocks of 16 and 32, in registers),
-// LU with the same pivot search and the same skipped zero multipliers, the same elementwise passes.
-// With FP_CONTRACT OFF every operation is the reference's, so results agree bit for bit with a host
-// build that does not contract either (and iteration counts exactly). The step limit, the method
-// switch, its early give-up and the element formulas come from shared/ambartsumian_rules.h, as the
-// reference's do.
+// solves order problems serially, one after another (local size 1, no barriers, no local memory).
+// A direct port of the C++ references solve_fixed_point, solve_doubling and solve_fast
+// (src/brdf/rte/order_solver.cpp) and LuFactor (src/brdf/core/linalg.cpp), operation for operation:
+// every product element summed in k order skipping zero a_ik (rows in pairs and columns in blocks
+// of 16 and 32, in registers), LU with the same pivot search and the same skipped zero multipliers,
+// the same elementwise passes. With FP_CONTRACT OFF every operation is the reference's, so results
+// agree bit for bit with a host build that does not contract either (and iteration counts exactly).
+// The step limit, the method switch, its early give-up and the element formulas come from
+// shared/ambartsumian_rules.h, as the reference's do.
 //
 // The same task, input, output, workspace and status layouts as kernels/ambartsumian.cl
 // (shared/ambartsumian_layout.h), so the host code (src/brdf/rte/cl_solver.cpp) is shared, but for

@@ -157,7 +157,8 @@ namespace {
 // y[i * lanes + l] is row i of shift l's right-hand side, u[l] its shift. Gaussian elimination with
 // a pivot chosen per shift from two adjacent rows, then back substitution: every shift sees the
 // operations of a scalar solve in the same order, so its answer does not depend on its neighbours
-// or on the instruction set (no contraction in ISO C++: the clones give identical results). Side by
+// or on the instruction set (no contraction anywhere, cmake/BrdfWarnings.cmake: the clones give
+// identical results). Side by
 // side, the shifts fill the vector lanes; solved one at a time, this O(n^2) chain of dependent
 // operations was a tenth of a material's compute. `bad` receives the shifts singular to working
 // precision (1) or not (0). `work` holds n x n x lanes scratch.
