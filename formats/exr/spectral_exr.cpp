@@ -248,7 +248,8 @@ void write_spectral_exr(const std::filesystem::path& path, const SpectralTable& 
                   " cells above the horizon hold no data; OpenEXR tables store them as 0");
 
     std::vector<detail::PlaneSource> sources;
-    for (std::size_t j = 0; j < n; ++j) sources.push_back({spectral_channel_name(table.wavelengths_nm[j]), table.planes[j].data()});
+    for (std::size_t j = 0; j < n; ++j)
+        sources.push_back({spectral_channel_name(table.wavelengths_nm[j]), table.planes[j].data()});
     detail::write_zip_table(path, sources,
                             {{"spectralLayoutVersion", spectral_layout_version},
                              {"brdf.layout", exr_layout},

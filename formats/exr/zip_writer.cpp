@@ -35,7 +35,8 @@ using Compressor = std::unique_ptr<libdeflate_compressor, CompressorDeleter>;
 // (even/odd byte split and the byte predictor), compressed. `scratch` holds the Xdr bytes and the
 // transformed ones. Stored raw when compression does not shrink it, as OpenEXR does.
 std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int y0, int lines,
-                                     libdeflate_compressor* compressor, std::vector<unsigned char>& scratch) {
+                                     libdeflate_compressor* compressor,
+                                     std::vector<unsigned char>& scratch) {
     const std::size_t row_bytes = sizeof(float) * exr_width;
     const std::size_t size = row_bytes * planes.size() * static_cast<std::size_t>(lines);
     scratch.resize(2 * size);
@@ -47,7 +48,8 @@ std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int
         const std::size_t first = static_cast<std::size_t>(y) * exr_width;
         for (const PlaneSource& p : planes) {
             for (int x = 0; x < exr_width; ++x) {
-                const float v = p.data ? p.data[first + x] : static_cast<float>(p.doubles[first + x]);
+                const float v =
+                    p.data ? p.data[first + x] : static_cast<float>(p.doubles[first + x]);
                 const float stored = v >= 0.0f && !cell_below_horizon(first + x) ? v : 0.0f;
                 std::uint32_t bits;
                 std::memcpy(&bits, &stored, sizeof bits);
@@ -57,15 +59,18 @@ std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int
             at += row_bytes;
         }
     }
-    static_assert(std::endian::native == std::endian::little, "Xdr bytes are written as the host holds them");
+    static_assert(std::endian::native == std::endian::little,
+                  "Xdr bytes are written as the host holds them");
     // Even bytes first, then odd ones; then each byte as its difference to the one before + 128.
     const std::size_t half = (size + 1) / 2;
     for (std::size_t i = 0; i < half; ++i) split[i] = xdr[2 * i];
     for (std::size_t i = 0; 2 * i + 1 < size; ++i) split[half + i] = xdr[2 * i + 1];
     for (std::size_t i = size - 1; i > 0; --i)
-        split[i] = static_cast<unsigned char>(static_cast<int>(split[i]) - split[i - 1] + (128 + 256));
+        split[i] =
+            static_cast<unsigned char>(static_cast<int>(split[i]) - split[i - 1] + (128 + 256));
     std::vector<unsigned char> out(libdeflate_zlib_compress_bound(compressor, size));
-    const std::size_t packed = libdeflate_zlib_compress(compressor, split, size, out.data(), out.size());
+    const std::size_t packed =
+        libdeflate_zlib_compress(compressor, split, size, out.data(), out.size());
     if (packed == 0 || packed >= size) return std::vector<unsigned char>(xdr, xdr + size);
     out.resize(packed);
     return out;
@@ -103,8 +108,8 @@ class CoreWriter {
     }
 
   private:
-    static int64_t write(exr_const_context_t, void* self, const void* buffer, uint64_t n, uint64_t offset,
-                         exr_stream_error_func_ptr_t) {
+    static int64_t write(exr_const_context_t, void* self, const void* buffer, uint64_t n,
+                         uint64_t offset, exr_stream_error_func_ptr_t) {
         auto* writer = static_cast<CoreWriter*>(self);
         try {
             writer->m_file.write_at(offset, buffer, static_cast<std::size_t>(n));
@@ -140,9 +145,11 @@ void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneS
         exr_context_t ctx = writer.context();
         int part = 0;
         writer.check(exr_add_part(ctx, "", EXR_STORAGE_SCANLINE, &part));
-        writer.check(exr_initialize_required_attr_simple(ctx, part, exr_width, exr_height, EXR_COMPRESSION_ZIP));
+        writer.check(exr_initialize_required_attr_simple(ctx, part, exr_width, exr_height,
+                                                         EXR_COMPRESSION_ZIP));
         for (const PlaneSource& p : planes)
-            writer.check(exr_add_channel(ctx, part, p.name.c_str(), EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1));
+            writer.check(exr_add_channel(ctx, part, p.name.c_str(), EXR_PIXEL_FLOAT,
+                                         EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1));
         for (const auto& [name, value] : attributes)
             writer.check(exr_attr_set_string(ctx, part, name.c_str(), value.c_str()));
         if (chromaticities) {
@@ -160,7 +167,8 @@ void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneS
             for (const PlaneSource& p : planes)
                 if (p.name == list->entries[i].name.str) ordered.push_back(p);
         if (ordered.size() != planes.size())
-            throw InternalError(cat(display(path), ": OpenEXR kept ", ordered.size(), " of ", planes.size(), " channels"));
+            throw InternalError(cat(display(path), ": OpenEXR kept ", ordered.size(), " of ",
+                                    planes.size(), " channels"));
 
         // Every block compressed on every core, then written in order.
         const int blocks = (exr_height + zip_lines - 1) / zip_lines;
@@ -177,11 +185,13 @@ void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneS
         parallel_for(threads, threads, [&](int t) {
             for (int b = t * per_thread; b < std::min(blocks, (t + 1) * per_thread); ++b) {
                 const int y0 = b * zip_lines;
-                packed[b] = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0), compressors[t].get(), scratch[t]);
+                packed[b] = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0),
+                                      compressors[t].get(), scratch[t]);
             }
         });
         for (int b = 0; b < blocks; ++b)
-            writer.check(exr_write_scanline_chunk(ctx, part, b * zip_lines, packed[b].data(), packed[b].size()));
+            writer.check(exr_write_scanline_chunk(ctx, part, b * zip_lines, packed[b].data(),
+                                                  packed[b].size()));
         writer.finish();
     }
     out.commit();

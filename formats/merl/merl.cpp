@@ -132,16 +132,21 @@ void write_merl(const std::filesystem::path& path, const BrdfTable& table) {
     const int threads = std::min(available_cpus(), static_cast<int>(3 * blocks_per_plane));
     parallel_for(threads, threads, [&](int t) {
         std::vector<double> buffer(block);
-        for (std::size_t b = static_cast<std::size_t>(t); b < 3 * blocks_per_plane; b += static_cast<std::size_t>(threads)) {
+        const auto step = static_cast<std::size_t>(threads);
+        for (std::size_t b = static_cast<std::size_t>(t); b < 3 * blocks_per_plane; b += step) {
             const int c = static_cast<int>(b / blocks_per_plane);
-            const std::size_t first = (b % blocks_per_plane) * block, count = std::min(block, cells - first);
+            const std::size_t first = (b % blocks_per_plane) * block;
+            const std::size_t count = std::min(block, cells - first);
             const std::vector<double>& values = table.channels[c];
             for (std::size_t k = 0; k < count; ++k) {
                 const std::size_t cell = first + k;
-                buffer[k] = cell_below_horizon(cell) || !table.has_data(cell) ? -1.0 : values[cell] / merl_scales[c];
+                buffer[k] = cell_below_horizon(cell) || !table.has_data(cell)
+                                ? -1.0
+                                : values[cell] / merl_scales[c];
             }
             to_or_from_little_endian(std::span<double>(buffer.data(), count));
-            out.write_at(header_size + c * plane_bytes + first * sizeof(double), buffer.data(), count * sizeof(double));
+            out.write_at(header_size + c * plane_bytes + first * sizeof(double), buffer.data(),
+                         count * sizeof(double));
         }
     });
     out.commit();

@@ -158,9 +158,8 @@ namespace {
 // a pivot chosen per shift from two adjacent rows, then back substitution: every shift sees the
 // operations of a scalar solve in the same order, so its answer does not depend on its neighbours
 // or on the instruction set (no contraction anywhere, cmake/BrdfWarnings.cmake: the clones give
-// identical results). Side by
-// side, the shifts fill the vector lanes; solved one at a time, this O(n^2) chain of dependent
-// operations was a tenth of a material's compute. `bad` receives the shifts singular to working
+// identical results). Side by side, the shifts fill the vector lanes; solved one at a time, this
+// O(n^2) chain of dependent operations was a tenth of a material's compute. `bad` receives the shifts singular to working
 // precision (1) or not (0). `work` holds n x n x lanes scratch.
 template <int Lanes>
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
@@ -252,7 +251,8 @@ void ShiftedPencil::solve(std::span<const double> u, Matrix& b) const {
         double shift[lanes];
         for (int l = 0; l < lanes; ++l) shift[l] = u[static_cast<std::size_t>(e0 + std::min(l, count - 1))];
         for (int i = 0; i < n; ++i)
-            for (int l = 0; l < lanes; ++l) group[static_cast<std::size_t>(i) * lanes + l] = yt(e0 + std::min(l, count - 1), i);
+            for (int l = 0; l < lanes; ++l)
+                group[static_cast<std::size_t>(i) * lanes + l] = yt(e0 + std::min(l, count - 1), i);
         int bad[lanes];
         solve_hessenberg_lanes<lanes>(m_t, m_h, shift, group.data(), work.data(), bad);
         for (int l = 0; l < count; ++l)

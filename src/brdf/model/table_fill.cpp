@@ -88,7 +88,8 @@ Rgb cubic_rgb_table(const double* table, int points, int channels, double x) {
     const double* v = table + channels * static_cast<std::size_t>(c.k);
     Rgb out{};
     for (int ch = 0; ch < channels; ++ch)
-        out[ch] = c.w[0] * v[ch] + c.w[1] * v[channels + ch] + c.w[2] * v[2 * channels + ch] + c.w[3] * v[3 * channels + ch];
+        out[ch] = c.w[0] * v[ch] + c.w[1] * v[channels + ch] + c.w[2] * v[2 * channels + ch] +
+                  c.w[3] * v[3 * channels + ch];
     if (channels == 1) out[1] = out[2] = out[0];
     return out;
 }
@@ -109,8 +110,8 @@ void add_single_scattering(const FillInputs& in, double mu_i, double mu_o, doubl
         const double slab = std::isinf(in.tau[s]) ? 1.0 : -std::expm1(-in.tau[s] * (1.0 / uo + 1.0 / ui));
         const double v = factor / (uo + ui) * slab;
         const double u = std::sqrt(0.5 * (1.0 - cos_scatter)) - std::sqrt(0.5 * (1.0 + cos_scatter));
-        const Rgb phase =
-            cubic_rgb_table(&in.phase[static_cast<std::size_t>(s) * kp * in.channels], kp, in.channels, 0.5 * (u + 1.0));
+        const double* table = &in.phase[static_cast<std::size_t>(s) * kp * in.channels];
+        const Rgb phase = cubic_rgb_table(table, kp, in.channels, 0.5 * (u + 1.0));
         for (int c = 0; c < 3; ++c) out[c] += v * phase[c];
     }
 }
@@ -362,7 +363,8 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
     for (std::size_t k : which) in.orders = std::max(in.orders, material.samples[k].reflection.orders());
     const int mp = padded_orders(in.orders);
     // A grey material (every colour weight the same in all channels) is filled in one channel.
-    const bool grey = std::all_of(weights.begin(), weights.end(), [](const Rgb& w) { return w[0] == w[1] && w[1] == w[2]; });
+    const bool grey =
+        std::all_of(weights.begin(), weights.end(), [](const Rgb& w) { return w[0] == w[1] && w[1] == w[2]; });
     in.channels = grey ? 1 : 3;
     const int channels = in.channels;
     in.fourier.assign(static_cast<std::size_t>(mp) * channels * e * e, 0.0);
