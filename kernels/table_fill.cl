@@ -77,8 +77,10 @@ static double smith_lambda(int lobe, double alpha, double mu, double s) {
     return 0.5 * (exp(-a * a) / (a * sqrt(TF_PI)) - erfc(a));
 }
 
+// The three channels' planes are separate buffers: the host's table planes themselves on a CPU
+// device (cl_table_fill.cpp maps them with CL_MEM_USE_HOST_PTR).
 __kernel void table_fill(__global const FillParams* params_in, __global const double* data,
-                         __global double* output) {
+                         __global double* red, __global double* green, __global double* blue) {
     const FillParams p = *params_in;
     // One work item per cell of the first half of phi_d, writing it and its mirror phi_d -> pi -
     // phi_d (table_fill.cpp: fill_table_cpu says why they are equal).
@@ -105,9 +107,9 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
     const double wox = mdx * ch + dz * sh, woy = mdy, woz = -mdx * sh + dz * ch;
 
     if (wiz <= 0.0 || woz <= 0.0) { // formats::cell_below_horizon
-        output[cell] = output[mirror] = TF_NO_DATA;
-        output[TF_CELLS + cell] = output[TF_CELLS + mirror] = TF_NO_DATA;
-        output[2 * TF_CELLS + cell] = output[2 * TF_CELLS + mirror] = TF_NO_DATA;
+        red[cell] = red[mirror] = TF_NO_DATA;
+        green[cell] = green[mirror] = TF_NO_DATA;
+        blue[cell] = blue[mirror] = TF_NO_DATA;
         return;
     }
     // table_fill.cpp: cell_directions.
@@ -224,7 +226,7 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             out2 = max0_ref(out2 + value * cubic_table(fresnel + 2 * (long)lp, lp, cos_d));
         }
     }
-    output[cell] = output[mirror] = out0;
-    output[TF_CELLS + cell] = output[TF_CELLS + mirror] = out1;
-    output[2 * TF_CELLS + cell] = output[2 * TF_CELLS + mirror] = out2;
+    red[cell] = red[mirror] = out0;
+    green[cell] = green[mirror] = out1;
+    blue[cell] = blue[mirror] = out2;
 }

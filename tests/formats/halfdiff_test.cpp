@@ -294,6 +294,9 @@ TEST(HalfDiffHorizon, BelowHorizonCellsAreThoseWithACentreDirectionAtOrBelowZ0) 
                 const bool expected = a - b <= 0 || a + b <= 0;
                 ASSERT_EQ(cell_below_horizon(i, j, k), expected) << i << " " << j << " " << k;
                 ASSERT_EQ(cell_below_horizon(cell_index(i, j, k)), expected);
+                // The mask (built from each angle's sine and cosine once) is to_directions' horizon.
+                const DirectionPair p = to_directions(theta_h_centre(i), theta_d_centre(j), phi_d_centre(k));
+                ASSERT_EQ(cell_below_horizon(i, j, k), p.wi.z <= 0.0 || p.wo.z <= 0.0) << i << " " << j << " " << k;
                 below += expected;
                 margin = std::min({margin, std::abs(a - b), std::abs(a + b)});
             }

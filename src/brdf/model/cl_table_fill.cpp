@@ -15,6 +15,7 @@
 #include <shared/table_fill_layout.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <vector>
@@ -144,12 +145,20 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     ::cl::Buffer data_buf(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, data.size() * sizeof(double), data.data(),
                           &err);
     brdf::cl::check(err, "OpenCL table fill: create buffer inputs");
+    // The kernel writes the table's planes in place where the device can (PoCL on the CPU: no
+    // 35 MB device buffer to fault in, nor a copy back); a GPU copies them at the map below.
+    formats::BrdfTable table;
     const std::size_t plane = formats::cells * sizeof(double);
-    ::cl::Buffer out_buf(context, CL_MEM_WRITE_ONLY, 3 * plane, nullptr, &err);
-    brdf::cl::check(err, "OpenCL table fill: create buffer output");
+    std::array<::cl::Buffer, 3> out_bufs;
+    for (int c = 0; c < 3; ++c) {
+        out_bufs[c] = ::cl::Buffer(context, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, plane, table.channels[c].data(),
+                                   &err);
+        brdf::cl::check(err, "OpenCL table fill: create buffer output");
+    }
     brdf::cl::check(kernel.setArg(0, param_buf), "OpenCL table fill: set argument parameters");
     brdf::cl::check(kernel.setArg(1, data_buf), "OpenCL table fill: set argument inputs");
-    brdf::cl::check(kernel.setArg(2, out_buf), "OpenCL table fill: set argument output");
+    for (int c = 0; c < 3; ++c)
+        brdf::cl::check(kernel.setArg(2 + c, out_bufs[c]), "OpenCL table fill: set argument output");
 
     // A work item per cell of the first phi_d half (it writes the mirror too); the global size is
     // rounded up to a multiple of the local size, and the kernel ignores ids past the half.
@@ -158,10 +167,15 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     ::cl::CommandQueue& queue = ctx->queue();
     brdf::cl::check(queue.enqueueNDRangeKernel(kernel, ::cl::NullRange, ::cl::NDRange(global), ::cl::NDRange(local)),
                     "OpenCL table fill: run table_fill");
-    formats::BrdfTable table;
-    for (int c = 0; c < 3; ++c)
-        brdf::cl::check(queue.enqueueReadBuffer(out_buf, CL_FALSE, c * plane, plane, table.channels[c].data()),
-                        "OpenCL table fill: read output");
+    // Mapping a CL_MEM_USE_HOST_PTR buffer makes the host's memory hold the kernel's results (the
+    // pointer returned is the host's own).
+    for (int c = 0; c < 3; ++c) {
+        void* mapped = queue.enqueueMapBuffer(out_bufs[c], CL_TRUE, CL_MAP_READ, 0, plane, nullptr, nullptr, &err);
+        brdf::cl::check(err, "OpenCL table fill: map output");
+        if (mapped != table.channels[c].data())
+            throw InternalError("OpenCL table fill: the device mapped the output elsewhere than the table");
+        brdf::cl::check(queue.enqueueUnmapMemObject(out_bufs[c], mapped), "OpenCL table fill: unmap output");
+    }
     brdf::cl::check(queue.finish(), "OpenCL table fill: finish");
     return table;
 }
