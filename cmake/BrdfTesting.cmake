@@ -12,7 +12,7 @@ function(brdf_add_gtest name)
     set(ARG_TIMEOUT 300)
   endif()
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_LIBS} brdf_test_support brdf_test_main brdf_options)
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} brdf_test_support brdf_test_main brdf_options brdf_serial_blas)
   set(_environment)
   if(BRDF_SANITIZE)
     # OpenCL (ICD loader, PoCL, LLVM) keeps state until exit that LeakSanitizer reports; those

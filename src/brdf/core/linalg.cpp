@@ -14,10 +14,14 @@
 namespace brdf {
 namespace {
 
-// OpenBLAS would otherwise start a thread pool of its own under every caller's parallel_for.
+// OpenBLAS would otherwise start a thread pool of its own under every caller's parallel_for. The
+// programs set one thread before main (core/serial_blas.cpp); setting it again would restart the
+// pool that stopped there.
 void single_threaded_blas() {
     static std::once_flag once;
-    std::call_once(once, [] { openblas_set_num_threads(1); });
+    std::call_once(once, [] {
+        if (openblas_get_num_threads() != 1) openblas_set_num_threads(1);
+    });
 }
 
 void require_same_shape(const Matrix& a, const Matrix& b, const char* op) {
