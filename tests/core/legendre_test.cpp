@@ -47,6 +47,33 @@ TEST(Legendre, SeriesMatchesDirectSum) {
     }
 }
 
+// The batched functions (a row per point) are the scalar ones bit for bit: orders 0 to 600 (the
+// rescaled start of high orders near the poles, whose values underflow to true zeros), degrees
+// from m alone to 700, point counts around the block size (64), both poles (zero rows for m > 0)
+// and points a hair from them.
+TEST(Legendre, BatchedFunctionsEqualTheScalarOnesBitForBit) {
+    for (std::size_t count : {1u, 63u, 64u, 65u, 200u}) {
+        std::vector<double> x(count);
+        for (std::size_t k = 0; k < count; ++k) x[k] = count == 1 ? 0.3 : -1.0 + 2.0 * k / (count - 1);
+        if (count > 3) x[1] = -1.0 + 1e-13, x[count - 2] = 1.0 - 1e-9, x[count / 2] = 0.0;
+        for (int m : {0, 1, 5, 40, 300, 600})
+            for (int lmax : {m, m + 1, m + 60, 700}) {
+                if (lmax < m) continue;
+                const std::size_t degrees = static_cast<std::size_t>(lmax - m + 1);
+                std::vector<double> out(count * degrees, -7.0);
+                normalized_legendre(m, lmax, x, out);
+                for (std::size_t k = 0; k < count; ++k) {
+                    const std::vector<double> one = normalized_legendre(m, lmax, x[k]);
+                    for (std::size_t d = 0; d < degrees; ++d)
+                        ASSERT_EQ(out[k * degrees + d], one[d]) << "m " << m << " lmax " << lmax << " x " << x[k] << " l " << m + d;
+                }
+            }
+    }
+    std::vector<double> too_few(3);
+    const std::vector<double> two = {0.0, 0.5};
+    EXPECT_THROW(normalized_legendre(0, 1, two, too_few), InternalError);
+}
+
 // The batched series (blocks of points) is the scalar Clenshaw sum bit for bit, at a Mie-like
 // degree (3000 terms, beta_l = (2l + 1) g^l of HG g = 0.999), at point counts around the block
 // size, including both ends of [-1, 1].

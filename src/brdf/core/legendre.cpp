@@ -55,6 +55,63 @@ std::vector<double> normalized_legendre(int m, int lmax, double x) {
     return out;
 }
 
+void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<double> out) {
+    if (m < 0 || lmax < m)
+        throw InputError(cat("normalized_legendre: bad order/degree (m = ", m, ", lmax = ", lmax, ")"));
+    const std::size_t count = static_cast<std::size_t>(lmax - m + 1);
+    if (out.size() < x.size() * count)
+        throw InternalError(cat("normalized_legendre: ", out.size(), " outputs for ", x.size(), " points of ",
+                                count, " degrees"));
+    // Per point the scalar function's start (its scale and first two values), then the recurrence
+    // degree by degree over a block of points, each with the scalar's operations in its order.
+    double ratio = 1.0;
+    for (int k = 1; k <= m; ++k) ratio *= (2.0 * k - 1.0) / (2.0 * k);
+    const double half_log_ratio = m == 0 ? 0.0 : 0.5 * std::log2(ratio);
+    const double first = std::sqrt(2.0 * m + 1.0);
+    const double mm = static_cast<double>(m) * m;
+    constexpr std::size_t block = 64;
+    double prev[block], cur[block], e[block], scale[block];
+    bool zero[block];
+    for (std::size_t start = 0; start < x.size(); start += block) {
+        const std::size_t points = std::min(block, x.size() - start);
+        const double* xs = x.data() + start;
+        double* rows = out.data() + start * count;
+        for (std::size_t k = 0; k < points; ++k) {
+            const double s = std::sqrt(std::max(0.0, (1.0 - xs[k]) * (1.0 + xs[k])));
+            zero[k] = m > 0 && s == 0.0;
+            e[k] = m == 0 ? 0.0 : half_log_ratio + m * std::log2(s);
+            scale[k] = std::exp2(e[k]);
+            double* row = rows + k * count;
+            if (zero[k]) {
+                std::fill_n(row, count, 0.0);
+                continue;
+            }
+            prev[k] = 1.0;
+            row[0] = (e[k] < -1100.0) ? 0.0 : prev[k] * scale[k];
+            if (lmax == m) continue;
+            cur[k] = first * xs[k];
+            row[1] = (e[k] < -1100.0) ? 0.0 : cur[k] * scale[k];
+        }
+        for (int l = m + 2; l <= lmax; ++l) {
+            const double lm1 = l - 1.0;
+            const double a = 2.0 * l - 1.0, b = std::sqrt(lm1 * lm1 - mm), c = std::sqrt(double(l) * l - mm);
+            const std::size_t column = static_cast<std::size_t>(l - m);
+            for (std::size_t k = 0; k < points; ++k) {
+                if (zero[k]) continue;
+                const double next = (a * xs[k] * cur[k] - b * prev[k]) / c;
+                prev[k] = cur[k];
+                cur[k] = next;
+                if (e[k] < 0.0 && std::abs(cur[k]) > 0x1p+100) {
+                    prev[k] *= 0x1p-100, cur[k] *= 0x1p-100;
+                    e[k] += 100.0;
+                    scale[k] = std::exp2(e[k]);
+                }
+                rows[k * count + column] = (e[k] < -1100.0) ? 0.0 : cur[k] * scale[k];
+            }
+        }
+    }
+}
+
 void legendre_polynomials(int lmax, double x, std::span<double> out) { normalized_legendre(0, lmax, x, out); }
 
 double legendre_series(std::span<const double> beta, double x) {

@@ -36,7 +36,7 @@ DeltaM delta_m(const Medium& medium, int first_dropped) {
 
 Matrix legendre_basis(int m, int lmax, std::span<const double> mu) {
     Matrix psi(static_cast<int>(mu.size()), lmax - m + 1);
-    for (int i = 0; i < psi.rows(); ++i) normalized_legendre(m, lmax, mu[i], psi.row(i));
+    normalized_legendre(m, lmax, mu, psi.data());
     return psi;
 }
 
