@@ -15,6 +15,9 @@ the peak resident memory of the process and the accuracy next to it:
   `eval --exact`), render 512 x 512, lobes of two specs;
 - matting agents: silica spheres r_eff 5 um and 40 um (v_eff 0.1) in acrylic.
 
+Each run starts with the disk flushed (os.sync): a run's own fsync of its tables is timed, the
+write-back of the runs before it is not.
+
 Needs numpy; pydisort for the DISORT row (skipped, and said so, without it).
 """
 import argparse
@@ -51,7 +54,10 @@ def spec(work, name, base, **changes):
 
 
 def measure(cmd, stdin_text=None, timeout=900):
-    """Runs cmd in a fresh Python child so ru_maxrss is this command's alone."""
+    """Runs cmd in a fresh Python child so ru_maxrss is this command's alone. The disk is flushed
+    first: every `compute` fsyncs its tables (35 MB of MERL), and with the runs before still being
+    written back that fsync waited for them too (the HG row took 0.20-0.43 s within one run)."""
+    os.sync()
     helper = ("import json,resource,subprocess,sys,time;"
               "a=json.loads(sys.argv[1]);i=open(a['stdin']).read() if a['stdin'] else None;"
               "t=time.perf_counter();"
