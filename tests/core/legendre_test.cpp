@@ -47,10 +47,11 @@ TEST(Legendre, SeriesMatchesDirectSum) {
     }
 }
 
-// The batched functions (a row per point) are the scalar ones bit for bit: orders 0 to 600 (the
-// rescaled start of high orders near the poles, whose values underflow to true zeros), degrees
-// from m alone to 700, point counts around the block size (64), both poles (zero rows for m > 0)
-// and points a hair from them.
+// The batched functions (a row per point) give each point what it gets alone, whatever its place
+// in a block and whatever else the block holds (the single-point function is a block of one; the
+// values themselves are checked above): orders 0 to 600 (the rescaled start of high orders near
+// the poles, whose values underflow to true zeros), degrees from m alone to 700, point counts
+// around the block size (64), both poles (zero rows for m > 0) and points a hair from them.
 TEST(Legendre, BatchedFunctionsEqualTheScalarOnesBitForBit) {
     for (std::size_t count : {1u, 63u, 64u, 65u, 200u}) {
         std::vector<double> x(count);

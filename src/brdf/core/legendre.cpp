@@ -11,42 +11,7 @@ namespace brdf {
 void normalized_legendre(int m, int lmax, double x, std::span<double> out) {
     if (m < 0 || lmax < m || out.size() < static_cast<std::size_t>(lmax - m + 1))
         throw InputError(cat("normalized_legendre: bad order/degree (m = ", m, ", lmax = ", lmax, ")"));
-    const double s = std::sqrt(std::max(0.0, (1.0 - x) * (1.0 + x)));
-    const std::size_t count = static_cast<std::size_t>(lmax - m + 1);
-    if (m > 0 && s == 0.0) {
-        std::fill_n(out.begin(), count, 0.0);
-        return;
-    }
-    // Pbar_m^m = prod_{k=1..m} sqrt((2k - 1)/(2k)) s underflows for large m (s^m), and starting the
-    // recurrence from a denormal would amplify its few bits into O(1) garbage further up in l. So the
-    // recurrence runs on scaled values v_l = Pbar_l^m * 2^-e, starting from v_m = 1 with
-    // e = log2(Pbar_m^m), rescaling when v grows; values are unscaled on output (true zeros stay 0).
-    // prod_k (2k - 1)/(2k) ~ 1/sqrt(pi m) stays normal for any m: one log of it, one of s.
-    double ratio = 1.0;
-    for (int k = 1; k <= m; ++k) ratio *= (2.0 * k - 1.0) / (2.0 * k);
-    double e = m == 0 ? 0.0 : 0.5 * std::log2(ratio) + m * std::log2(s);
-    double scale = std::exp2(e);
-    const auto emit = [&](std::size_t i, double v) { out[i] = (e < -1100.0) ? 0.0 : v * scale; };
-    double prev = 1.0;
-    emit(0, prev);
-    if (lmax == m) return;
-    double cur = std::sqrt(2.0 * m + 1.0) * x; // Pbar_{m+1}^m / 2^e
-    emit(1, cur);
-    // (l - m) P_l^m = (2l - 1) x P_{l-1}^m - (l + m - 1) P_{l-2}^m, rescaled to the normalised functions.
-    const double mm = static_cast<double>(m) * m;
-    for (int l = m + 2; l <= lmax; ++l) {
-        const double lm1 = l - 1.0;
-        const double next =
-            ((2.0 * l - 1.0) * x * cur - std::sqrt(lm1 * lm1 - mm) * prev) / std::sqrt(double(l) * l - mm);
-        prev = cur;
-        cur = next;
-        if (e < 0.0 && std::abs(cur) > 0x1p+100) { // keep v moderate while the true values are tiny
-            prev *= 0x1p-100, cur *= 0x1p-100;
-            e += 100.0;
-            scale = std::exp2(e);
-        }
-        emit(static_cast<std::size_t>(l - m), cur);
-    }
+    normalized_legendre(m, lmax, std::span<const double>(&x, 1), out);
 }
 
 std::vector<double> normalized_legendre(int m, int lmax, double x) {
@@ -62,8 +27,15 @@ void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<d
     if (out.size() < x.size() * count)
         throw InternalError(cat("normalized_legendre: ", out.size(), " outputs for ", x.size(), " points of ",
                                 count, " degrees"));
-    // Per point the scalar function's start (its scale and first two values), then the recurrence
-    // degree by degree over a block of points, each with the scalar's operations in its order.
+    // Pbar_m^m = prod_{k=1..m} sqrt((2k - 1)/(2k)) s underflows for large m (s^m), and starting the
+    // recurrence from a denormal would amplify its few bits into O(1) garbage further up in l. So the
+    // recurrence runs on scaled values v_l = Pbar_l^m * 2^-e, starting from v_m = 1 with
+    // e = log2(Pbar_m^m), rescaling when v grows; values are unscaled on output (true zeros stay 0).
+    // prod_k (2k - 1)/(2k) ~ 1/sqrt(pi m) stays normal for any m: one log of it, one of s per point.
+    // Per point the start (its scale and first two values), then the recurrence
+    // (l - m) P_l^m = (2l - 1) x P_{l-1}^m - (l + m - 1) P_{l-2}^m, rescaled to the normalised
+    // functions, degree by degree over a block of points: each point's operations are those of a
+    // block of one.
     double ratio = 1.0;
     for (int k = 1; k <= m; ++k) ratio *= (2.0 * k - 1.0) / (2.0 * k);
     const double half_log_ratio = m == 0 ? 0.0 : 0.5 * std::log2(ratio);
@@ -101,7 +73,7 @@ void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<d
                 const double next = (a * xs[k] * cur[k] - b * prev[k]) / c;
                 prev[k] = cur[k];
                 cur[k] = next;
-                if (e[k] < 0.0 && std::abs(cur[k]) > 0x1p+100) {
+                if (e[k] < 0.0 && std::abs(cur[k]) > 0x1p+100) { // keep v moderate while the values are tiny
                     prev[k] *= 0x1p-100, cur[k] *= 0x1p-100;
                     e[k] += 100.0;
                     scale[k] = std::exp2(e[k]);

@@ -19,9 +19,10 @@ void normalized_legendre(int m, int lmax, double x, std::span<double> out);
 std::vector<double> normalized_legendre(int m, int lmax, double x);
 
 /// The same at every x[k], into out[k * (lmax - m + 1) + l - m] (a row per point, as a row-major
-/// matrix holds them; out.size() >= x.size() * (lmax - m + 1)), bit for bit the scalar values: the
-/// recurrence's square roots once per degree instead of per degree and point, and the points'
-/// recurrences side by side, where each point's chain of divisions waits on the one before.
+/// matrix holds them; out.size() >= x.size() * (lmax - m + 1)); each point's values are bit for bit
+/// those of the single-point function (which is this with one point). The recurrence's square roots
+/// once per degree, and the points' recurrences side by side, where one point's chain of divisions
+/// waits on the one before.
 void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<double> out);
 
 /// Legendre polynomials P_l(x), l = 0 .. lmax, into out (out.size() >= lmax + 1).
