@@ -9,10 +9,12 @@
 #include <cerrno>
 #include <cmath>
 #include <numbers>
+#include <poll.h>
 #include <pty.h>
 #include <sstream>
 #include <stdexcept>
 #include <sys/wait.h>
+#include <utmp.h>
 #include <unistd.h>
 
 namespace brdf::test {
@@ -165,11 +167,18 @@ std::size_t count_of(const std::string& text, const std::string& what) {
 }
 
 /// Runs argv with stderr (and stdout) on a pseudo-terminal: what a user at a terminal sees.
+/// The test keeps its own descriptor of the terminal open, so the master never reports the
+/// hang-up (EIO) that forkpty's callers wait for: on some kernels (CI's) it came while the
+/// child's last lines were still on their way, and they were lost. It reads until the child has
+/// exited and the terminal has been quiet for a while after.
 ProcessResult run_on_terminal(const std::vector<std::string>& argv) {
-    int master = -1;
-    const pid_t pid = forkpty(&master, nullptr, nullptr, nullptr);
-    if (pid < 0) throw std::runtime_error("forkpty failed");
+    int master = -1, terminal = -1;
+    if (openpty(&master, &terminal, nullptr, nullptr, nullptr) != 0) throw std::runtime_error("openpty failed");
+    const pid_t pid = fork();
+    if (pid < 0) throw std::runtime_error("fork failed");
     if (pid == 0) {
+        ::close(master);
+        if (login_tty(terminal) != 0) _exit(126);
         std::vector<char*> args;
         for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
         args.push_back(nullptr);
@@ -177,16 +186,25 @@ ProcessResult run_on_terminal(const std::vector<std::string>& argv) {
         _exit(127);
     }
     ProcessResult r;
+    int status = 0;
+    bool exited = false;
     char buf[4096];
     for (;;) {
-        const ssize_t k = ::read(master, buf, sizeof buf);
-        if (k > 0) r.err.append(buf, static_cast<std::size_t>(k));
-        else if (k < 0 && errno == EINTR) continue;
-        else break; // EIO once the child has closed the terminal
+        pollfd ready{master, POLLIN, 0};
+        const int n = ::poll(&ready, 1, exited ? 200 : 50);
+        if (n < 0 && errno == EINTR) continue;
+        if (n > 0 && (ready.revents & POLLIN)) {
+            const ssize_t k = ::read(master, buf, sizeof buf);
+            if (k > 0) {
+                r.err.append(buf, static_cast<std::size_t>(k));
+                continue;
+            }
+        }
+        if (exited) break; // quiet for 200 ms after the exit: all of it has arrived
+        exited = waitpid(pid, &status, WNOHANG) == pid;
     }
     ::close(master);
-    int status = 0;
-    waitpid(pid, &status, 0);
+    ::close(terminal);
     r.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     return r;
 }
