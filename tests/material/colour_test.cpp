@@ -441,6 +441,33 @@ TEST(ColourGamutFit, ReflectanceAboveOneBindsTheScale) {
     EXPECT_NE(fit.warning.find("orange: colour outside the rec709 gamut"), std::string::npos) << fit.warning;
 }
 
+// A white, non-absorbing paint: diffuse albedo + mirror is 1 at every wavelength, to the solve's
+// error (silica spheres in PMMA: 1 - 1e-11 in luminance, a channel 1e-11 above 1). That noise is
+// no colour: with the solve's error stated the fit leaves the weights alone and says nothing;
+// without, the same noise bound s far below 1 (0.47 for the silica) and warned of a colour outside
+// the gamut. Channels really above 1 by more than that error still bind.
+TEST(ColourGamutFit, ReflectanceAtOneWithinTheSolvesErrorIsNoColour) {
+    std::vector<double> white; // the red end a little above 1, the rest a little below
+    for (double l : visible_wavelengths()) white.push_back(l >= 600.0 ? 1.0 + 2e-11 : 1.0 - 4e-11);
+    GamutFitInput in = material_input("white", white, ColorSpace::Rec709);
+    const GamutFit noisy = fit_into_gamut(in);
+    ASSERT_LT(noisy.scale, 0.99) << "the noise no longer binds: the test checks nothing";
+    in.value_error = 1e-8;
+    const GamutFit fit = fit_into_gamut(in);
+    EXPECT_EQ(fit.scale, 1.0);
+    EXPECT_FALSE(fit.clipped);
+    EXPECT_EQ(fit.warning, "");
+    EXPECT_EQ(fit.weights, in.weights);
+    // The orange's red, 0.36 above 1, is colour whatever the solve's error.
+    std::vector<double> orange;
+    for (double l : visible_wavelengths()) orange.push_back(l >= 570.0 ? 1.0 : 0.02);
+    GamutFitInput bright = material_input("orange", orange, ColorSpace::Rec709);
+    bright.value_error = 1e-8;
+    EXPECT_LT(fit_into_gamut(bright).scale, 1.0);
+    in.value_error = 0.5; // not an error a solve may have
+    EXPECT_THROW(fit_into_gamut(in), NumericalError);
+}
+
 // Two samples whose colour would need s ~ 0.10 (a deep blue weight of low luminance): below the floor
 // the fit stops at the floor, clips, and says what it clipped.
 TEST(ColourGamutFit, BelowTheFloorItClipsAndSaysSo) {

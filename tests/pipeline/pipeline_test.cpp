@@ -261,6 +261,22 @@ TEST(PipelineTable, MattingAgentsWavelengthsShareTheirSingleScattering) {
     EXPECT_LT(shared_single_scattering_error(model::solve_material(spec, model::Device::Cpu, st)), 1e-6);
 }
 
+// The same matting agent at "default" (64 streams, the count its stream check ends at): white and
+// non-absorbing, its diffuse albedo + mirror is 1 to the solve's error (1e-11) at every wavelength.
+// That is no colour for the gamut fit to scale: it did, by 0.47, and warned of a colour outside
+// Rec.709.
+TEST(PipelineTable, AWhiteMattingAgentIsNotOutOfGamut) {
+    const auto spec = spec_from(R"({"name": "silica", "binder": {"material": "pmma"}, "spectrum": "visible",
+        "pigments": [{"material": "silica", "volume_fraction": 0.05,
+                      "size": {"distribution": "gamma", "r_eff_um": 5, "v_eff": 0.1}}]})");
+    model::NumericalSettings st = model::settings_for(spec.accuracy.tolerance);
+    st.streams = st.max_streams = 64;
+    const model::SolvedMaterial m = model::solve_material(spec, model::Device::Cpu, st);
+    EXPECT_EQ(m.gamut_scale, 1.0);
+    EXPECT_FALSE(m.gamut_clipped);
+    EXPECT_TRUE(m.warnings.empty()) << m.warnings.front();
+}
+
 // fill_value_from_cosines (the render's rough lobe, at every light sample) is fill_value without
 // the angles: the same BRDF to rounding, with orders, single scattering and a lobe, and for a lobe
 // alone (no orders: no angles at all).

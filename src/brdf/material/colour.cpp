@@ -147,6 +147,11 @@ double rounding(double magnitude) {
     return 1e-12 * magnitude;
 }
 
+// What a value may stray outside its range without being colour: rounding, or the solve's error.
+double slack(const GamutFitInput& in, double magnitude) {
+    return std::max(rounding(magnitude), in.value_error * magnitude);
+}
+
 void check_input(const GamutFitInput& in) {
     const std::size_t n = in.weights.size();
     if (in.brdf.size() != n * in.probe_count)
@@ -157,6 +162,8 @@ void check_input(const GamutFitInput& in) {
                      " samples x ", in.reflectance_count));
     if (!(in.min_scale > 0.0 && in.min_scale <= 1.0))
         internal(cat("input for ", in.material, ": min_scale ", in.min_scale, " outside (0, 1]"));
+    if (!(in.value_error >= 0.0 && in.value_error < 1e-2))
+        internal(cat("input for ", in.material, ": value_error ", in.value_error, " outside [0, 0.01)"));
     for (const Rgb& w : in.weights)
         for (double v : w)
             if (!std::isfinite(v)) throw NumericalError(cat(in.material, ": a colour weight is not finite"));
@@ -322,23 +329,24 @@ GamutFit fit_into_gamut(const GamutFitInput& in) {
 
     // Each channel is v(s) = Y + s (V - Y): a lower bound 0 caps s where V < 0, an upper bound 1 (of
     // a reflectance) where V > 1. A bound the luminance itself breaks (Y < 0, or Y > 1 for a
-    // reflectance) no s can meet: that value is clipped. Luminances within rounding of the bound are
-    // rounding, not colour: left to the caller's clamp. Each cap is taken 1e-10 (relative) inside
-    // the exact root so that the bound holds after rounding too.
+    // reflectance) no s can meet: that value is clipped. Values within rounding (or the solve's
+    // error) of the bound are not colour: left to the caller's clamp. Each cap is taken 1e-10
+    // (relative) inside the exact root so that the bound holds after rounding too.
     constexpr double inside = 1.0 - 1e-10;
     double s = 1.0;
     bool luminance_out_of_range = false;
     const auto bound = [&](const ProbeColours& pc, bool upper) {
         for (std::size_t i = 0; i < pc.colour.size(); ++i) {
-            const double y = pc.luminance[i], tol = rounding(pc.magnitude[i]);
+            const double y = pc.luminance[i], tol = slack(in, pc.magnitude[i]);
+            const double error = in.value_error * pc.magnitude[i];
             if (y < -tol || (upper && y > 1.0 + tol)) {
                 luminance_out_of_range = true;
                 continue;
             }
             for (int c = 0; c < 3; ++c) {
                 const double v = pc.colour[i][c];
-                if (v < 0.0 && y > tol) s = std::min(s, inside * y / (y - v));
-                if (upper && v > 1.0 && y < 1.0 - tol) s = std::min(s, inside * (1.0 - y) / (v - y));
+                if (v < -error && y > tol) s = std::min(s, inside * y / (y - v));
+                if (upper && v > 1.0 + error && y < 1.0 - tol) s = std::min(s, inside * (1.0 - y) / (v - y));
             }
         }
     };
@@ -364,13 +372,13 @@ GamutFit fit_into_gamut(const GamutFitInput& in) {
             probe_colours(fit.weights, in.reflectance, in.reflectance_count, lum);
         for (std::size_t i = 0; i < after.colour.size(); ++i)
             for (double x : after.colour[i])
-                if (x < -rounding(after.magnitude[i])) {
+                if (x < -slack(in, after.magnitude[i])) {
                     ++fit.values_out_of_range;
                     fit.lowest_value = std::min(fit.lowest_value, x);
                 }
         for (std::size_t i = 0; i < after_refl.colour.size(); ++i)
             for (double x : after_refl.colour[i]) {
-                const double tol = rounding(after_refl.magnitude[i]);
+                const double tol = slack(in, after_refl.magnitude[i]);
                 if (x < -tol) {
                     ++fit.values_out_of_range;
                     fit.lowest_value = std::min(fit.lowest_value, x);
@@ -425,7 +433,7 @@ void check_gamut_fit(const GamutFitInput& in, const GamutFit& fit) {
                 internal(cat("changed the luminance of ", in.material, " (", kind, " ", i, ": ",
                              before.luminance[i], " -> ", after.luminance[i], ")"));
             if (fit.clipped) continue;
-            const double tol = 10.0 * rounding(after.magnitude[i]);
+            const double tol = std::max(10.0 * rounding(after.magnitude[i]), slack(in, after.magnitude[i]));
             for (int c = 0; c < 3; ++c) {
                 const double v = after.colour[i][c];
                 if (v < -tol || (upper && v > 1.0 + tol))

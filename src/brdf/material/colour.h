@@ -125,6 +125,12 @@ struct GamutFitInput {
     /// samples x reflectance_count (e.g. diffuse albedo + mirror at a few incidence angles).
     std::vector<double> reflectance;
     double min_scale = default_min_gamut_scale; ///< in (0, 1]
+    /// Relative error of the values themselves (the solve's iteration tolerance; 0 for exact
+    /// values): a value out of range by less than this times the size of its terms is the solve's
+    /// error, not colour, and is left to the caller's clamp. A white, non-absorbing paint's
+    /// diffuse albedo + mirror is 1 to about 1e-11, a channel a few 1e-12 above it: fitted, that
+    /// noise set s to 0.47 (silica spheres in PMMA) and warned of a colour outside the gamut.
+    double value_error = 0.0;
 };
 
 struct GamutFit {

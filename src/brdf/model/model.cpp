@@ -574,6 +574,7 @@ void fit_into_gamut(SolvedMaterial& m) {
     material::GamutFitInput in;
     in.material = m.spec.name;
     in.space = m.spec.colorspace;
+    in.value_error = m.settings.solver_tolerance; // the per-order iteration's: energy kept to it
     const double reflectance_mus[] = {1.0, std::cos(std::numbers::pi / 6.0), 0.5, std::cos(4.0 * std::numbers::pi / 9.0)};
     std::vector<std::vector<double>> probes(m.samples.size());
     // Independent per sample: one thread per core; every direction of a sample from one grid.
