@@ -159,7 +159,7 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                     state = S_FP_DONE;
                     break;
                 }
-                op = OP_GEMM, out = t, a = x, b = riccati_c; // X C
+                op = OP_GEMM, mode = MODE_ADD, out = t, base = sweep_right, a = riccati_c, b = x; // right + C X
                 state = S_FP_SWEEP;
                 break;
             case S_FP_SWEEP:
@@ -394,11 +394,11 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             int bad = 0;
             for (int q = lid; q < n2; q += lsz) {
                 const int i = q / n, j = q % n;
-                double lx = 0.0, xr = 0.0, xcx = 0.0;
+                // (B + left X) + X (right + C X), t = right + C X: three products a sweep
+                double lx = 0.0, xt = 0.0;
                 for (int k = 0; k < n; ++k) lx += sweep_left[i * n + k] * x[k * n + j];
-                for (int k = 0; k < n; ++k) xr += x[i * n + k] * sweep_right[k * n + j];
-                for (int k = 0; k < n; ++k) xcx += t[i * n + k] * x[k * n + j];
-                double v = ((riccati_b[q] + lx) + xr) + xcx;
+                for (int k = 0; k < n; ++k) xt += x[i * n + k] * t[k * n + j];
+                double v = (riccati_b[q] + lx) + xt;
                 v /= amb_fixed_point_divisor(mu[i], mu[j]);
                 nx[q] = v;
                 c0 = fmax(c0, fabs(v - x[q]));

@@ -258,7 +258,6 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
         gptr riccati_b = ws + 5 * n2;
         gptr riccati_c = ws + 6 * n2;
         gptr t = ws + 7 * n2;
-        gptr xcx = ws + 8 * n2;
         gptr divisor = ws + 9 * n2; // once per problem, not two divisions per element per sweep
         for (int i = 0; i < n; ++i)
             for (int j = 0; j < n; ++j) {
@@ -269,14 +268,13 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
         int it;
         double previous = 0.0, before = 0.0; // the changes of the last two sweeps
         for (it = 1; it <= cap; ++it) {
-            // next = ((B + left X) + X right) + (X C) X
+            // next = (B + left X) + X (right + C X): three products a sweep, as solve_fixed_point
             mat_mul(nx, n, sweep_left, n, x, n, n);
             for (int q = 0; q < n2; ++q) nx[q] = riccati_b[q] + nx[q];
-            mat_mul(xr, n, x, n, sweep_right, n, n);
+            mat_mul(t, n, riccati_c, n, x, n, n);
+            mat_add(t, sweep_right, n, n);
+            mat_mul(xr, n, x, n, t, n, n);
             mat_add(nx, xr, n, n);
-            mat_mul(t, n, x, n, riccati_c, n, n);
-            mat_mul(xcx, n, t, n, x, n, n);
-            mat_add(nx, xcx, n, n);
             for (int q = 0; q < n2; ++q) nx[q] /= divisor[q];
             const double change = max_abs_diff_of(nx, x, n2);
             gptr sw = x;

@@ -95,7 +95,8 @@ OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& cont
     s.x = Matrix(n, n);
     double previous = 0.0, before = 0.0; // the changes of the last two sweeps
     for (s.iterations = 1; s.iterations <= control.max_iterations; ++s.iterations) {
-        Matrix next = b + left * s.x + s.x * right + s.x * c * s.x;
+        // X right + X C X as X (right + C X): three products a sweep, not four.
+        Matrix next = b + left * s.x + s.x * (right + c * s.x);
         for (int i = 0; i < n; ++i)
             for (int j = 0; j < n; ++j) next(i, j) /= amb_fixed_point_divisor(mu[i], mu[j]);
         const double change = max_abs_diff(next, s.x);
