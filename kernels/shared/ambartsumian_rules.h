@@ -12,7 +12,7 @@
 //   B = (om/4) M^-1 P- M^-1,  C = om W P- W,  D = M^-1 - (om/2) W P+ M^-1,  A = D^T.
 
 /// Structure-preserving doubling stops after this many steps whatever the tolerance: it converges
-/// quadratically (about 14 steps at 1e-13), so 100 steps without convergence means it never will.
+/// quadratically (9-17 steps at 1e-13), so 100 steps without convergence means it never will.
 #define AMB_DOUBLING_STEPS 100
 
 /// Method::Fast: order 0 above this albedo goes straight to doubling. The fixed point needs

@@ -266,7 +266,8 @@ TEST(PipelineTable, MattingAgentsWavelengthsShareTheirSingleScattering) {
 // That is no colour for the gamut fit to scale: it did, by 0.47, and warned of a colour outside
 // Rec.709.
 TEST(PipelineTable, AWhiteMattingAgentIsNotOutOfGamut) {
-    const auto spec = spec_from(R"({"name": "silica", "binder": {"material": "pmma"}, "spectrum": "visible",
+    const auto spec =
+        spec_from(R"({"name": "silica", "binder": {"material": "pmma"}, "spectrum": "visible",
         "pigments": [{"material": "silica", "volume_fraction": 0.05,
                       "size": {"distribution": "gamma", "r_eff_um": 5, "v_eff": 0.1}}]})");
     model::NumericalSettings st = model::settings_for(spec.accuracy.tolerance);

@@ -78,6 +78,44 @@ TEST(Solvers, AllThreeAgreeOnEveryOrder) {
     }
 }
 
+// Doubling's automatic Cayley parameter (doubling_gamma): the geometric mean of the decay rates it
+// contracts, sqrt(lambda_min / mu_min). Against gamma = 1 on every order of HG media at 64 streams
+// (albedo 1 with the conservative shift, 0.999 and 0.9): the same solution to the iteration's
+// tolerance, the residual still at rounding, and at least a quarter fewer steps in all (measured:
+// 9-12 steps an order instead of 15).
+TEST(Solvers, DoublingsCayleyParameterSavesStepsNotAccuracy) {
+    rte::ReflectionSettings settings;
+    settings.streams = 64;
+    int automatic_steps = 0, unit_steps = 0;
+    for (double omega : {1.0, 0.999, 0.9})
+        for (double g : {0.0, 0.85}) {
+            const rte::StackSetup setup =
+                rte::setup_reflection({omega, hg_beta(g, 300)}, {}, settings);
+            for (const auto& problem : rte::order_problems(setup)) {
+                rte::SolveControl unit;
+                unit.tolerance = 1e-10;
+                unit.gamma = 1.0;
+                rte::SolveControl automatic = unit;
+                automatic.gamma = 0.0;
+                const double gamma = rte::doubling_gamma(problem);
+                EXPECT_GT(gamma, 1.0) << "m " << problem.m;
+                const auto a = rte::solve_doubling(problem, unit);
+                const auto b = rte::solve_doubling(problem, automatic);
+                const double scale = max_abs(a.x);
+                if (scale == 0.0) continue; // an order the phase function does not have
+                EXPECT_TRUE(b.converged) << "omega " << omega << " g " << g << " m " << problem.m;
+                EXPECT_LE(max_abs_diff(a.x, b.x), 1e-9 * scale)
+                    << "omega " << omega << " g " << g << " m " << problem.m;
+                EXPECT_LE(b.residual, std::max(1e-13, 10.0 * a.residual)) << "m " << problem.m;
+                automatic_steps += b.iterations;
+                unit_steps += a.iterations;
+            }
+        }
+    std::printf("doubling steps: %d with gamma = 1, %d with doubling_gamma\n", unit_steps,
+                automatic_steps);
+    EXPECT_LT(automatic_steps, 0.75 * unit_steps);
+}
+
 TEST(Solvers, FastGivesUpOnlyAFixedPointThatCannotConvergeByItsCap) {
     // Albedo 1, HG g = 0.9: low orders m >= 1 need more fixed-point sweeps than Method::Fast's cap,
     // higher ones fewer. A try given up early must be one that the capped sweeps would not have

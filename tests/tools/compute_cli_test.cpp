@@ -14,8 +14,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <sys/wait.h>
-#include <utmp.h>
 #include <unistd.h>
+#include <utmp.h>
 
 namespace brdf::test {
 namespace {
@@ -173,7 +173,8 @@ std::size_t count_of(const std::string& text, const std::string& what) {
 /// exited and the terminal has been quiet for a while after.
 ProcessResult run_on_terminal(const std::vector<std::string>& argv) {
     int master = -1, terminal = -1;
-    if (openpty(&master, &terminal, nullptr, nullptr, nullptr) != 0) throw std::runtime_error("openpty failed");
+    if (openpty(&master, &terminal, nullptr, nullptr, nullptr) != 0)
+        throw std::runtime_error("openpty failed");
     const pid_t pid = fork();
     if (pid < 0) throw std::runtime_error("fork failed");
     if (pid == 0) {

@@ -163,7 +163,8 @@ void check_input(const GamutFitInput& in) {
     if (!(in.min_scale > 0.0 && in.min_scale <= 1.0))
         internal(cat("input for ", in.material, ": min_scale ", in.min_scale, " outside (0, 1]"));
     if (!(in.value_error >= 0.0 && in.value_error < 1e-2))
-        internal(cat("input for ", in.material, ": value_error ", in.value_error, " outside [0, 0.01)"));
+        internal(
+            cat("input for ", in.material, ": value_error ", in.value_error, " outside [0, 0.01)"));
     for (const Rgb& w : in.weights)
         for (double v : w)
             if (!std::isfinite(v)) throw NumericalError(cat(in.material, ": a colour weight is not finite"));
@@ -327,8 +328,8 @@ GamutFit fit_into_gamut(const GamutFitInput& in) {
     const ProbeColours probes = probe_colours(in.weights, in.brdf, in.probe_count, lum);
     const ProbeColours refl = probe_colours(in.weights, in.reflectance, in.reflectance_count, lum);
 
-    // Each channel is v(s) = Y + s (V - Y): a lower bound 0 caps s where V < 0, an upper bound 1 (of
-    // a reflectance) where V > 1. A bound the luminance itself breaks (Y < 0, or Y > 1 for a
+    // Each channel is v(s) = Y + s (V - Y): a lower bound 0 caps s where V < 0, an upper bound 1
+    // (of a reflectance) where V > 1. A bound the luminance itself breaks (Y < 0, or Y > 1 for a
     // reflectance) no s can meet: that value is clipped. Values within rounding (or the solve's
     // error) of the bound are not colour: left to the caller's clamp. Each cap is taken 1e-10
     // (relative) inside the exact root so that the bound holds after rounding too.
@@ -346,7 +347,8 @@ GamutFit fit_into_gamut(const GamutFitInput& in) {
             for (int c = 0; c < 3; ++c) {
                 const double v = pc.colour[i][c];
                 if (v < -error && y > tol) s = std::min(s, inside * y / (y - v));
-                if (upper && v > 1.0 + error && y < 1.0 - tol) s = std::min(s, inside * (1.0 - y) / (v - y));
+                if (upper && v > 1.0 + error && y < 1.0 - tol)
+                    s = std::min(s, inside * (1.0 - y) / (v - y));
             }
         }
     };
@@ -433,7 +435,8 @@ void check_gamut_fit(const GamutFitInput& in, const GamutFit& fit) {
                 internal(cat("changed the luminance of ", in.material, " (", kind, " ", i, ": ",
                              before.luminance[i], " -> ", after.luminance[i], ")"));
             if (fit.clipped) continue;
-            const double tol = std::max(10.0 * rounding(after.magnitude[i]), slack(in, after.magnitude[i]));
+            const double tol =
+                std::max(10.0 * rounding(after.magnitude[i]), slack(in, after.magnitude[i]));
             for (int c = 0; c < 3; ++c) {
                 const double v = after.colour[i][c];
                 if (v < -tol || (upper && v > 1.0 + tol))

@@ -100,7 +100,7 @@ void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, bool serial, std:
         t.workspace_offset = static_cast<brdf_i64>(ws_size);
         t.omega = p.omega;
         t.tolerance = control.tolerance;
-        t.gamma = control.gamma;
+        t.gamma = control.gamma > 0.0 ? control.gamma : doubling_gamma(p);
         t.n = n;
         t.m = p.m;
         t.method = static_cast<brdf_i32>(method);

@@ -117,6 +117,15 @@ OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& cont
     return s;
 }
 
+double doubling_gamma(const OrderProblem& pr) {
+    const auto& mu = pr.streams.mu;
+    if (mu.empty()) return 1.0;
+    const double mu_min = *std::min_element(mu.begin(), mu.end());
+    const double lambda_min =
+        pr.m == 0 && !pr.conservative() ? std::min(1.0, std::sqrt(3.0 * (1.0 - pr.omega))) : 1.0;
+    return std::max(1.0, std::sqrt(lambda_min / mu_min));
+}
+
 OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control) {
     const int n = pr.streams.size();
     RiccatiMatrices r = riccati_matrices(pr);
@@ -136,7 +145,7 @@ OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control
             }
         }
     }
-    const double g = control.gamma;
+    const double g = control.gamma > 0.0 ? control.gamma : doubling_gamma(pr);
     const Matrix eye = Matrix::identity(n);
     const Matrix a_g = r.a + g * eye;
     const Matrix d_g = r.d + g * eye;
@@ -179,10 +188,10 @@ OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control
 }
 
 OrderSolution solve_fast(const OrderProblem& problem, const SolveControl& control) {
-    // A fixed-point sweep costs about 3 N^3, a doubling step about 17 N^3 and doubling needs ~14
-    // steps: the sweeps win whenever they converge within about 30, which m >= 1 nearly always does
-    // (m = 1 at albedo 1 needs 13 to 25). A try that will not makes it plain from its rate within a
-    // few sweeps (amb_fast_gives_up) and stops there, not at the cap.
+    // A fixed-point sweep costs about 3 N^3, a doubling step about 17 N^3 and doubling needs 9-15
+    // steps (doubling_gamma): the sweeps win whenever they converge within about 30, which m >= 1
+    // nearly always does (m = 1 at albedo 1 needs 13 to 25). A try that will not makes it plain
+    // from its rate within a few sweeps (amb_fast_gives_up) and stops there, not at the cap.
     int sweeps = 0;
     if (!amb_fast_starts_with_doubling(problem.m, problem.omega)) {
         SolveControl capped = control;
