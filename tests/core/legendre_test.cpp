@@ -105,14 +105,17 @@ TEST(Linalg, LuSolvesAndRejectsSingular) {
     EXPECT_THROW(LuFactor{s}, NumericalError);
 }
 
-TEST(Linalg, ShiftedPencilMatchesLuForEveryShift) {
+class ShiftedPencilSizes : public ::testing::TestWithParam<std::pair<int, double>> {};
+
+TEST_P(ShiftedPencilSizes, MatchesLuForEveryShift) {
     // (D + u G) x = b for the shifts of a Nystrom evaluation (u in (0, 1], D the stream cosines,
-    // down to 1e-3): the Hessenberg-triangular solve against an LU of each assembled matrix.
-    const int n = 24;
+    // down to 1e-3 at 24 streams and 1e-4 at 128, whose smallest Gauss node is 8.8e-5): the
+    // Hessenberg solve of D^-1 G's reduction against an LU of each assembled matrix.
+    const auto [n, smallest] = GetParam();
     Matrix g(n, n);
     std::vector<double> d(static_cast<std::size_t>(n)), b(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) {
-        d[i] = std::pow(10.0, -3.0 * i / (n - 1.0));
+        d[i] = std::pow(smallest, i / (n - 1.0));
         b[i] = std::sin(1.0 + i);
         for (int j = 0; j < n; ++j) g(i, j) = (i == j ? 1.0 : 0.0) - 0.4 * std::cos(0.3 * i * j + 0.1 * j) / n;
     }
@@ -135,11 +138,19 @@ TEST(Linalg, ShiftedPencilMatchesLuForEveryShift) {
             EXPECT_NEAR(columns(i, e), y[i], 1e-14 * (1.0 + std::abs(y[i])));
         }
     }
+}
+
+INSTANTIATE_TEST_SUITE_P(Linalg, ShiftedPencilSizes,
+                         ::testing::Values(std::pair{24, 1e-3}, std::pair{64, 3e-4}, std::pair{128, 1e-4}));
+
+TEST(Linalg, ShiftedPencilRefusesSingularShiftsAndDiagonals) {
     // A singular shift is refused, not answered with garbage: D + u G = 0 at u = 1 for G = -D.
     Matrix minus_d(2, 2);
     minus_d(0, 0) = -0.5, minus_d(1, 1) = -0.25;
     std::vector<double> r = {1.0, 1.0};
     EXPECT_THROW(ShiftedPencil(minus_d, std::vector<double>{0.5, 0.25}).solve(1.0, r), NumericalError);
+    // D must be invertible (the reduction is of D^-1 G).
+    EXPECT_THROW(ShiftedPencil(minus_d, std::vector<double>{0.5, 0.0}), InternalError);
 }
 
 // The shifts are solved eight side by side (vector lanes): each one's answer is the one it gets

@@ -149,10 +149,26 @@ ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d)
     const int n = g.rows();
     if (g.cols() != n || static_cast<int>(d.size()) != n)
         throw InternalError(cat("ShiftedPencil: shapes ", g.rows(), "x", g.cols(), " and ", d.size(), " differ"));
-    for (int i = 0; i < n; ++i) m_t(i, i) = d[static_cast<std::size_t>(i)]; // already upper triangular
-    const lapack_int info = LAPACKE_dgghrd(LAPACK_ROW_MAJOR, 'I', 'I', n, 1, n, m_h.data().data(), n,
-                                           m_t.data().data(), n, m_q.data().data(), n, m_z.data().data(), n);
-    if (info != 0) throw NumericalError(cat("ShiftedPencil: LAPACK dgghrd failed (info ", info, ", size ", n, ")"));
+    // D + u G = D (I + u A), A = D^-1 G = Z H Z^T (Householder, LAPACK dgehrd and dorghr: blocked,
+    // a third of the flops of dgghrd's Givens rotations on the pencil (D, G), which were 8 % of a
+    // matting agent's compute). So T = I, Q = D^-1 Z: (D + u G)^-1 b = Z (I + u H)^-1 Z^T D^-1 b.
+    for (int i = 0; i < n; ++i) {
+        const double di = d[static_cast<std::size_t>(i)];
+        if (!(std::isfinite(di) && di != 0.0))
+            throw InternalError(cat("ShiftedPencil: D(", i, ", ", i, ") = ", di, " (D must be invertible)"));
+        for (int j = 0; j < n; ++j) m_h(i, j) /= di;
+        m_t(i, i) = 1.0;
+    }
+    std::vector<double> tau(static_cast<std::size_t>(std::max(1, n - 1)));
+    lapack_int info = LAPACKE_dgehrd(LAPACK_ROW_MAJOR, n, 1, n, m_h.data().data(), n, tau.data());
+    if (info != 0) throw NumericalError(cat("ShiftedPencil: LAPACK dgehrd failed (info ", info, ", size ", n, ")"));
+    m_z = m_h;
+    info = LAPACKE_dorghr(LAPACK_ROW_MAJOR, n, 1, n, m_z.data().data(), n, tau.data());
+    if (info != 0) throw NumericalError(cat("ShiftedPencil: LAPACK dorghr failed (info ", info, ", size ", n, ")"));
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < i - 1; ++j) m_h(i, j) = 0.0; // dgehrd keeps its reflectors there
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) m_q(i, j) = m_z(i, j) / d[static_cast<std::size_t>(i)];
 }
 
 namespace {

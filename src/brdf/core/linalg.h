@@ -61,11 +61,11 @@ private:
     std::vector<int> m_pivot;
 };
 
-/// Solves (D + u G) x = b for many scalars u, D diagonal: one Hessenberg-triangular reduction of
-/// the pencil, G = Q H Z^T and D = Q T Z^T (LAPACK dgghrd; orthogonal, so backward stable), makes
-/// each solve the O(n^2) Hessenberg system (T + u H) y = Q^T b, x = Z y, instead of an O(n^3) LU
-/// per u (the frequency-response method of Laub 1981, IEEE TAC 26, 407). Throws NumericalError
-/// when T + u H is singular to working precision.
+/// Solves (D + u G) x = b for many scalars u, D diagonal and invertible: one Hessenberg reduction
+/// D^-1 G = Z H Z^T (LAPACK dgehrd, orthogonal, so backward stable for D^-1 G) makes each solve the
+/// O(n^2) Hessenberg system (T + u H) y = Q^T b, x = Z y, with T = I and Q = D^-1 Z, instead of
+/// an O(n^3) LU per u (the frequency-response method of Laub 1981, IEEE TAC 26, 407). Throws
+/// NumericalError when T + u H is singular to working precision, InternalError for a singular D.
 class ShiftedPencil {
 public:
     ShiftedPencil(const Matrix& g, std::span<const double> d);
