@@ -291,9 +291,21 @@ Matrix solve(const Matrix& a, Matrix b) {
 Matrix inverse(Matrix a) {
     const int n = a.rows();
     if (a.cols() != n) throw InputError(cat("inverse: matrix is not square (", n, "x", a.cols(), ")"));
-    Matrix x = Matrix::identity(n);
-    LuFactor(std::move(a)).solve(x);
-    return x;
+    if (n == 0) return a;
+    // LAPACK's blocked LU and inverse (dgetrf, dgetri): the adding method's (I - B g)^-1 per order
+    // and sample, where LuFactor's unblocked loops took 7 % of a matting agent's compute. LuFactor
+    // stays the kernels' reference (the same operations in the same order as theirs).
+    for (double v : a.data())
+        if (!std::isfinite(v))
+            throw NumericalError(cat("inverse: a matrix element is not finite (", n, "x", n, ")"));
+    std::vector<lapack_int> pivot(static_cast<std::size_t>(n));
+    lapack_int info = LAPACKE_dgetrf(LAPACK_ROW_MAJOR, n, n, a.data().data(), n, pivot.data());
+    if (info > 0)
+        throw NumericalError(cat("inverse: matrix is singular at column ", info - 1, " of ", n));
+    if (info == 0) info = LAPACKE_dgetri(LAPACK_ROW_MAJOR, n, a.data().data(), n, pivot.data());
+    if (info != 0)
+        throw NumericalError(cat("inverse: LAPACK failed (info ", info, ", size ", n, ")"));
+    return a;
 }
 
 void gemm(const Matrix& a, bool transpose_a, const Matrix& b, bool transpose_b, Matrix& c, double alpha, double beta) {

@@ -81,7 +81,7 @@ private:
 
 /// A^-1 B.
 Matrix solve(const Matrix& a, Matrix b);
-/// A^-1 (LU with partial pivoting; NumericalError when singular).
+/// A^-1 (LAPACK dgetrf and dgetri, blocked; NumericalError when singular or not finite).
 Matrix inverse(Matrix a);
 
 /// C = alpha op(A) op(B) + beta C, op = transpose when the flag is set; C must have the result's

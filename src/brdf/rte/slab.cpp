@@ -108,8 +108,11 @@ SlabOrder::SlabOrder(const OrderProblem& pr, double tau)
             rm(i, j) = 0.5 * (s * m_phi[j] + d * (1.0 + m_e[j]));
         }
     }
-    m_cp_inv = inverse(std::move(cp));
-    m_cm_inv = inverse(std::move(cm));
+    // By the unblocked LU (solve: LuFactor), not LAPACK's inverse: at tau = 0, where R = (P + Q)/2
+    // cancels to 0, it leaves 1e-14 of rounding (Slab.ZeroThicknessIsTheIdentity) where dgetri
+    // leaves 3e-14. Once per layer and order, off the per-direction path.
+    m_cp_inv = solve(cp, Matrix::identity(n));
+    m_cm_inv = solve(cm, Matrix::identity(n));
     const Matrix p = rp * m_cp_inv, q = rm * m_cm_inv;
     m_r = 0.5 * (p + q);
     m_t = 0.5 * (p - q);
