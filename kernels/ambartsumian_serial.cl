@@ -252,7 +252,7 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
     if (cap >= 0) {
         gptr x = ws;
         gptr nx = ws + n2;
-        gptr xr = ws + 2 * n2;
+        gptr xt = ws + 2 * n2;
         gptr sweep_left = ws + 3 * n2;
         gptr sweep_right = ws + 4 * n2;
         gptr riccati_b = ws + 5 * n2;
@@ -273,8 +273,8 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
             for (int q = 0; q < n2; ++q) nx[q] = riccati_b[q] + nx[q];
             mat_mul(t, n, riccati_c, n, x, n, n);
             mat_add(t, sweep_right, n, n);
-            mat_mul(xr, n, x, n, t, n, n);
-            mat_add(nx, xr, n, n);
+            mat_mul(xt, n, x, n, t, n, n);
+            mat_add(nx, xt, n, n);
             for (int q = 0; q < n2; ++q) nx[q] /= divisor[q];
             const double change = max_abs_diff_of(nx, x, n2);
             gptr sw = x;

@@ -145,19 +145,18 @@ void LuFactor::solve(std::span<double> b) const {
 }
 
 ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d)
-    : m_h(g), m_t(g.rows(), g.cols()), m_q(g.rows(), g.cols()), m_z(g.rows(), g.cols()) {
+    : m_h(g), m_q(g.rows(), g.cols()), m_z(g.rows(), g.cols()) {
     const int n = g.rows();
     if (g.cols() != n || static_cast<int>(d.size()) != n)
         throw InternalError(cat("ShiftedPencil: shapes ", g.rows(), "x", g.cols(), " and ", d.size(), " differ"));
     // D + u G = D (I + u A), A = D^-1 G = Z H Z^T (Householder, LAPACK dgehrd and dorghr: blocked,
     // a third of the flops of dgghrd's Givens rotations on the pencil (D, G), which were 8 % of a
-    // matting agent's compute). So T = I, Q = D^-1 Z: (D + u G)^-1 b = Z (I + u H)^-1 Z^T D^-1 b.
+    // matting agent's compute). So Q = D^-1 Z: (D + u G)^-1 b = Z (I + u H)^-1 Z^T D^-1 b.
     for (int i = 0; i < n; ++i) {
         const double di = d[static_cast<std::size_t>(i)];
         if (!(std::isfinite(di) && di != 0.0))
             throw InternalError(cat("ShiftedPencil: D(", i, ", ", i, ") = ", di, " (D must be invertible)"));
         for (int j = 0; j < n; ++j) m_h(i, j) /= di;
-        m_t(i, i) = 1.0;
     }
     std::vector<double> tau(static_cast<std::size_t>(std::max(1, n - 1)));
     lapack_int info = LAPACKE_dgehrd(LAPACK_ROW_MAJOR, n, 1, n, m_h.data().data(), n, tau.data());
@@ -173,7 +172,7 @@ ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d)
 
 namespace {
 
-// x = (T + u H)^-1 b for the upper Hessenberg T + u H and `lanes` shifts side by side, in place:
+// x = (I + u H)^-1 b for the upper Hessenberg H and `lanes` shifts side by side, in place:
 // y[i * lanes + l] is row i of shift l's right-hand side, u[l] its shift. Gaussian elimination with
 // a pivot chosen per shift from two adjacent rows, then back substitution: every shift sees the
 // operations of a scalar solve in the same order, so its answer does not depend on its neighbours
@@ -183,15 +182,15 @@ namespace {
 // precision (1) or not (0). `work` holds n x n x lanes scratch.
 template <int Lanes>
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
-solve_hessenberg_lanes(const Matrix& t, const Matrix& h, const double* u, double* y, double* work, int* bad) {
-    const int n = t.rows();
+solve_hessenberg_lanes(const Matrix& h, const double* u, double* y, double* work, int* bad) {
+    const int n = h.rows();
     const auto a = [&](int i, int j) { return work + (static_cast<std::size_t>(i) * n + j) * Lanes; };
     for (int l = 0; l < Lanes; ++l) bad[l] = 0;
     for (int i = 0; i < n; ++i)
         for (int j = std::max(0, i - 1); j < n; ++j) {
             double* aij = a(i, j);
-            const double tij = t(i, j), hij = h(i, j);
-            for (int l = 0; l < Lanes; ++l) aij[l] = tij + u[l] * hij;
+            const double eij = i == j ? 1.0 : 0.0, hij = h(i, j);
+            for (int l = 0; l < Lanes; ++l) aij[l] = eij + u[l] * hij;
         }
     for (int k = 0; k + 1 < n; ++k) {
         double* akk = a(k, k);
@@ -274,7 +273,7 @@ void ShiftedPencil::solve(std::span<const double> u, Matrix& b) const {
             for (int l = 0; l < lanes; ++l)
                 group[static_cast<std::size_t>(i) * lanes + l] = yt(e0 + std::min(l, count - 1), i);
         int bad[lanes];
-        solve_hessenberg_lanes<lanes>(m_t, m_h, shift, group.data(), work.data(), bad);
+        solve_hessenberg_lanes<lanes>(m_h, shift, group.data(), work.data(), bad);
         for (int l = 0; l < count; ++l)
             if (bad[l]) throw NumericalError(cat("ShiftedPencil: singular at u = ", shift[l], " (size ", n, ")"));
         for (int i = 0; i < n; ++i)

@@ -63,9 +63,9 @@ private:
 
 /// Solves (D + u G) x = b for many scalars u, D diagonal and invertible: one Hessenberg reduction
 /// D^-1 G = Z H Z^T (LAPACK dgehrd, orthogonal, so backward stable for D^-1 G) makes each solve the
-/// O(n^2) Hessenberg system (T + u H) y = Q^T b, x = Z y, with T = I and Q = D^-1 Z, instead of
-/// an O(n^3) LU per u (the frequency-response method of Laub 1981, IEEE TAC 26, 407). Throws
-/// NumericalError when T + u H is singular to working precision, InternalError for a singular D.
+/// O(n^2) Hessenberg system (I + u H) y = Q^T b, x = Z y, with Q = D^-1 Z, instead of an O(n^3)
+/// LU per u (the frequency-response method of Laub 1981, IEEE TAC 26, 407). Throws
+/// NumericalError when I + u H is singular to working precision, InternalError for a singular D.
 class ShiftedPencil {
 public:
     ShiftedPencil(const Matrix& g, std::span<const double> d);
@@ -76,7 +76,7 @@ public:
     int size() const { return m_h.rows(); }
 
 private:
-    Matrix m_h, m_t, m_q, m_z;
+    Matrix m_h, m_q, m_z;
 };
 
 /// A^-1 B.
