@@ -28,7 +28,7 @@
 #define OP_IDENTITY 3    // out = I
 #define OP_SETUP_FP 4    // fixed point's left, right, c, b; X = 0
 #define OP_SETUP_DB 5    // doubling's A_g, B, C, D_g (shifted when conservative)
-#define OP_EF 6          // E = I - 2g V^-1, F = I - 2g W^-1
+#define OP_EF 6          // E = I - 2g V^-1, F = I - 2g W^-1 (symmetric: E = I - 2g W^-T alone)
 #define OP_SWEEP 7       // one fixed-point sweep into nx, with partial reductions
 #define OP_DIFF 8        // partial reductions of H1 - H
 #define OP_LU_PIVOT 9    // partial pivot search in column k
@@ -36,6 +36,7 @@
 #define OP_LU_SCALE 11   // a_ik /= pivot
 #define OP_LU_UPDATE 12  // trailing update
 #define OP_SOLVE 13      // (LU) X = B, columns in parallel
+#define OP_TRANSPOSE 14  // out = a^T (n x n)
 
 #define MODE_PLAIN 0     // out = A B
 #define MODE_ADD 1       // out = base + A B
@@ -53,6 +54,7 @@
 #define S_DB_SETUP 10   // then S_DB_SETUP + 1 .. S_DB_SETUP + 23: the set-up sequence
 #define S_DB_STEP 40    // then S_DB_STEP + 1 .. S_DB_STEP + 15: one doubling step
 #define S_DB_DECIDE 60
+#define S_DB_SYMMETRIC_STEP 90 // + 1 .. + 10: the rest of a symmetric SDA step, after S_DB_STEP
 #define S_LU_PIVOT 70
 #define S_LU_CHECK 71
 #define S_LU_SCALE 72
@@ -85,6 +87,8 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
     const double g = task.gamma;
     const double g2 = 2.0 * g;
     const int conservative = amb_conservative(task.m, om);
+    // Unshifted, the equation is symmetric: F_k = E_k^T is never formed (solve_doubling).
+    const int symmetric = !conservative;
 
     // Workspace slots (n x n each). The Riccati B and C (slots 5, 6) serve the fixed point and the
     // doubling set-up alike.
@@ -109,6 +113,7 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
     __global double* y = ws + 10 * n2; // n x 2n
     __global double* lu = ws + 12 * n2;
     __global double* t = ws + 13 * n2;
+    __global double* t2 = ws + 14 * n2;
     __global double* a_gamma = ws + 4 * n2; // A + g I
     __global double* d_gamma = ws + 7 * n2; // D + g I
     __global double* dinv = ws + 8 * n2;
@@ -208,7 +213,10 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             case S_DB_SETUP + 2: lu_ret = S_DB_SETUP + 3; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_SETUP + 3: op = OP_IDENTITY, out = dinv; state = S_DB_SETUP + 4; break;
             case S_DB_SETUP + 4: op = OP_SOLVE, out = dinv; state = S_DB_SETUP + 5; break;
-            case S_DB_SETUP + 5: op = OP_COPY, out = lu, a = a_gamma; state = S_DB_SETUP + 6; break;
+            case S_DB_SETUP + 5: // A_g^-1 and V^-1 only for the general (shifted) start
+                if (symmetric) state = S_DB_SETUP + 9;
+                else op = OP_COPY, out = lu, a = a_gamma, state = S_DB_SETUP + 6;
+                break;
             case S_DB_SETUP + 6: lu_ret = S_DB_SETUP + 7; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_SETUP + 7: op = OP_IDENTITY, out = ainv; state = S_DB_SETUP + 8; break;
             case S_DB_SETUP + 8: op = OP_SOLVE, out = ainv; state = S_DB_SETUP + 9; break;
@@ -220,7 +228,10 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             case S_DB_SETUP + 11: lu_ret = S_DB_SETUP + 12; lu_k = 0; state = S_LU_PIVOT; break;
             case S_DB_SETUP + 12: op = OP_IDENTITY, out = winv; state = S_DB_SETUP + 13; break;
             case S_DB_SETUP + 13: op = OP_SOLVE, out = winv; state = S_DB_SETUP + 14; break;
-            case S_DB_SETUP + 14: op = OP_GEMM, out = t, a = riccati_c, b = ainv; state = S_DB_SETUP + 15; break;
+            case S_DB_SETUP + 14:
+                if (symmetric) state = S_DB_SETUP + 19;
+                else op = OP_GEMM, out = t, a = riccati_c, b = ainv, state = S_DB_SETUP + 15;
+                break;
             case S_DB_SETUP + 15: // D_g - C A_g^-1 B
                 op = OP_GEMM, mode = MODE_SUB, out = lu, base = d_gamma, a = t, b = riccati_b;
                 state = S_DB_SETUP + 16;
@@ -249,8 +260,13 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                     state = S_OUTPUT;
                     break;
                 }
-                op = OP_COPY, out = z, ldo = 2 * n, a = e_k; // Z = [E, .]
-                state = S_DB_STEP + 1;
+                if (symmetric) {
+                    op = OP_TRANSPOSE, out = t, a = e_k; // t = E^T
+                    state = S_DB_SYMMETRIC_STEP + 1;
+                } else {
+                    op = OP_COPY, out = z, ldo = 2 * n, a = e_k; // Z = [E, .]
+                    state = S_DB_STEP + 1;
+                }
                 break;
             case S_DB_STEP + 1: // Z = [E, G F]
                 op = OP_GEMM, out = z + n, ldo = 2 * n, a = g_k, b = f_k;
@@ -305,6 +321,35 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                 }
                 break;
             }
+            // -- one step of the symmetric SDA: Z = [E, G E^T] solved with I - G H, H_k+1 = H + (E^T H) Z_1 --
+            case S_DB_SYMMETRIC_STEP + 1: op = OP_COPY, out = z, ldo = 2 * n, a = e_k; state = S_DB_SYMMETRIC_STEP + 2; break;
+            case S_DB_SYMMETRIC_STEP + 2: // Z = [E, G E^T]
+                op = OP_GEMM, out = z + n, ldo = 2 * n, a = g_k, b = t;
+                state = S_DB_SYMMETRIC_STEP + 3;
+                break;
+            case S_DB_SYMMETRIC_STEP + 3:
+                op = OP_GEMM, mode = MODE_EYE_MINUS, out = lu, a = g_k, b = h_k;
+                state = S_DB_SYMMETRIC_STEP + 4;
+                break;
+            case S_DB_SYMMETRIC_STEP + 4: lu_ret = S_DB_SYMMETRIC_STEP + 5; lu_k = 0; state = S_LU_PIVOT; break;
+            case S_DB_SYMMETRIC_STEP + 5:
+                op = OP_SOLVE, out = z, ldo = 2 * n, cols = 2 * n;
+                state = S_DB_SYMMETRIC_STEP + 6;
+                break;
+            case S_DB_SYMMETRIC_STEP + 6:
+                op = OP_GEMM, out = e_next, a = e_k, b = z, ldb = 2 * n;
+                state = S_DB_SYMMETRIC_STEP + 7;
+                break;
+            case S_DB_SYMMETRIC_STEP + 7:
+                op = OP_GEMM, mode = MODE_ADD, out = g_next, base = g_k, a = e_k, b = z + n, ldb = 2 * n;
+                state = S_DB_SYMMETRIC_STEP + 8;
+                break;
+            case S_DB_SYMMETRIC_STEP + 8: op = OP_GEMM, out = t2, a = t, b = h_k; state = S_DB_SYMMETRIC_STEP + 9; break;
+            case S_DB_SYMMETRIC_STEP + 9:
+                op = OP_GEMM, mode = MODE_ADD, out = h_next, base = h_k, a = t2, b = z, ldb = 2 * n;
+                state = S_DB_SYMMETRIC_STEP + 10;
+                break;
+            case S_DB_SYMMETRIC_STEP + 10: op = OP_DIFF; state = S_DB_DECIDE; break;
             // -- LU of `lu` with partial pivoting (LuFactor), column lu_k; returns to lu_ret --
             case S_LU_PIVOT:
                 op = OP_LU_PIVOT;
@@ -371,6 +416,8 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             }
         } else if (op == OP_COPY) {
             for (int q = lid; q < n2; q += lsz) out[(q / n) * ldo + q % n] = a[q];
+        } else if (op == OP_TRANSPOSE) {
+            for (int q = lid; q < n2; q += lsz) out[q] = a[(q % n) * n + q / n];
         } else if (op == OP_IDENTITY) {
             for (int q = lid; q < n2; q += lsz) out[q] = (q / n == q % n) ? 1.0 : 0.0;
         } else if (op == OP_SETUP_FP) {
@@ -386,8 +433,12 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
         } else if (op == OP_EF) {
             for (int q = lid; q < n2; q += lsz) {
                 const double eye = (q / n == q % n) ? 1.0 : 0.0;
-                e_k[q] = eye - g2 * vinv[q];
-                f_k[q] = eye - g2 * winv[q];
+                if (symmetric) {
+                    e_k[q] = eye - g2 * winv[(q % n) * n + q / n];
+                } else {
+                    e_k[q] = eye - g2 * vinv[q];
+                    f_k[q] = eye - g2 * winv[q];
+                }
             }
         } else if (op == OP_SWEEP) {
             double c0 = 0.0, s0 = 0.0;

@@ -225,6 +225,26 @@ static void lu_solve(gcptr lu, int n, const int* piv, gptr b, int ldb, int cols)
     }
 }
 
+// Half of an SDA step: Z = [E, G R] (n x 2n) solved with I - G H in place, R = F (or E^T in the
+// symmetric form); the other half swaps the roles, [F, H E] with I - H G. -1, or the column of a
+// zero pivot.
+static int sda_solve(gptr z, gptr lu, int* piv, gcptr e, gcptr g, gcptr h, gcptr r, int n) {
+    mat_copy(z, 2 * n, e, n);
+    mat_mul(z + n, 2 * n, g, n, r, n, n);
+    mat_mul(lu, n, g, n, h, n, n);
+    identity_minus(lu, n);
+    const int bad = lu_factor(lu, n, piv);
+    if (bad < 0) lu_solve(lu, n, piv, z, 2 * n, 2 * n);
+    return bad;
+}
+
+// E_k+1 = E Z_1 and G_k+1 = G + E Z_2 from the solved Z (or F_k+1, H_k+1 from F, H and Y).
+static void sda_update(gptr e_next, gptr g_next, gcptr e, gcptr g, gcptr z, int n) {
+    mat_mul(e_next, n, e, n, z, 2 * n, n);
+    mat_mul(g_next, n, e, n, z + n, 2 * n, n);
+    for (int q = 0; q < n * n; ++q) g_next[q] = g[q] + g_next[q];
+}
+
 /// tasks[id] solved by its method in the workspace `ws`; X to output, the outcome to status.
 static void solve_task(__global const AmbTask* tasks, __global const double* input, __global double* output,
                        gptr ws, __global AmbStatus* status, int id) {
@@ -328,19 +348,14 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
             for (int j = 0; j < n; ++j)
                 amb_doubling_element(i, j, n, om, g, conservative, ev1, mu, w, phase_plus, phase_minus, riccati_b,
                                      riccati_c, a_gamma, d_gamma);
-        // dinv = D_g^-1, ainv = A_g^-1
+        // dinv = D_g^-1, then winv = (A_g - (B D_g^-1) C)^-1; unshifted (symmetric), E0 = I - 2g W^-T and no
+        // F; shifted, ainv = A_g^-1, vinv = (D_g - (C A_g^-1) B)^-1, E0 = I - 2g V^-1 and F0 = I - 2g W^-1.
+        const int symmetric = !conservative;
         mat_copy(lu, n, d_gamma, n);
         int bad = lu_factor(lu, n, piv);
         if (bad < 0) {
             mat_identity(dinv, n);
             lu_solve(lu, n, piv, dinv, n, n);
-            mat_copy(lu, n, a_gamma, n);
-            bad = lu_factor(lu, n, piv);
-        }
-        if (bad < 0) {
-            mat_identity(ainv, n);
-            lu_solve(lu, n, piv, ainv, n, n);
-            // winv = (A_g - (B D_g^-1) C)^-1
             mat_mul(t, n, riccati_b, n, dinv, n, n);
             mat_mul(t2, n, t, n, riccati_c, n, n);
             for (int q = 0; q < n2; ++q) lu[q] = a_gamma[q] - t2[q];
@@ -349,25 +364,38 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
         if (bad < 0) {
             mat_identity(winv, n);
             lu_solve(lu, n, piv, winv, n, n);
-            // vinv = (D_g - (C A_g^-1) B)^-1
+            if (!symmetric) {
+                mat_copy(lu, n, a_gamma, n);
+                bad = lu_factor(lu, n, piv);
+            }
+        }
+        if (bad < 0 && !symmetric) {
+            mat_identity(ainv, n);
+            lu_solve(lu, n, piv, ainv, n, n);
             mat_mul(t, n, riccati_c, n, ainv, n, n);
             mat_mul(t2, n, t, n, riccati_b, n, n);
             for (int q = 0; q < n2; ++q) lu[q] = d_gamma[q] - t2[q];
             bad = lu_factor(lu, n, piv);
+            if (bad < 0) {
+                mat_identity(vinv, n);
+                lu_solve(lu, n, piv, vinv, n, n);
+            }
         }
         if (bad >= 0) {
             error = AMB_SINGULAR;
             detail = bad;
         } else {
-            mat_identity(vinv, n);
-            lu_solve(lu, n, piv, vinv, n, n);
             const double g2 = 2.0 * g;
             for (int i = 0; i < n; ++i)
                 for (int j = 0; j < n; ++j) {
                     const int q = i * n + j;
                     const double eye = i == j ? 1.0 : 0.0;
-                    e_k[q] = eye - g2 * vinv[q];
-                    f_k[q] = eye - g2 * winv[q];
+                    if (symmetric) {
+                        e_k[q] = eye - g2 * winv[j * n + i];
+                    } else {
+                        e_k[q] = eye - g2 * vinv[q];
+                        f_k[q] = eye - g2 * winv[q];
+                    }
                 }
             mat_mul(t, n, dinv, n, riccati_c, n, n); // G0 = 2g ((D_g^-1 C) W^-1)
             mat_mul(g_k, n, t, n, winv, n, n);
@@ -378,27 +406,26 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
 
             int it;
             for (it = 1; it <= AMB_DOUBLING_STEPS; ++it) {
-                // Z = [E, G F], solved with I - G H; Y = [F, H E], solved with I - H G.
-                mat_copy(z, 2 * n, e_k, n);
-                mat_mul(z + n, 2 * n, g_k, n, f_k, n, n);
-                mat_mul(lu, n, g_k, n, h_k, n, n);
-                identity_minus(lu, n);
-                bad = lu_factor(lu, n, piv);
-                if (bad >= 0) break;
-                lu_solve(lu, n, piv, z, 2 * n, 2 * n);
-                mat_copy(y, 2 * n, f_k, n);
-                mat_mul(y + n, 2 * n, h_k, n, e_k, n, n);
-                mat_mul(lu, n, h_k, n, g_k, n, n);
-                identity_minus(lu, n);
-                bad = lu_factor(lu, n, piv);
-                if (bad >= 0) break;
-                lu_solve(lu, n, piv, y, 2 * n, 2 * n);
-                mat_mul(e_next, n, e_k, n, z, 2 * n, n);
-                mat_mul(g_next, n, e_k, n, z + n, 2 * n, n);
-                for (int q = 0; q < n2; ++q) g_next[q] = g_k[q] + g_next[q];
-                mat_mul(f_next, n, f_k, n, y, 2 * n, n);
-                mat_mul(h_next, n, f_k, n, y + n, 2 * n, n);
-                for (int q = 0; q < n2; ++q) h_next[q] = h_k[q] + h_next[q];
+                if (symmetric) {
+                    // Z = [E, G E^T] solved with I - G H; H_k+1 = H + (E^T H) Z_1 (solve_doubling).
+                    gptr et = t, eth = t2;
+                    for (int i = 0; i < n; ++i)
+                        for (int j = 0; j < n; ++j) et[i * n + j] = e_k[j * n + i];
+                    bad = sda_solve(z, lu, piv, e_k, g_k, h_k, et, n);
+                    if (bad >= 0) break;
+                    sda_update(e_next, g_next, e_k, g_k, z, n);
+                    mat_mul(eth, n, et, n, h_k, n, n);
+                    mat_mul(h_next, n, eth, n, z, 2 * n, n);
+                    for (int q = 0; q < n2; ++q) h_next[q] = h_k[q] + h_next[q];
+                } else {
+                    // Z = [E, G F], solved with I - G H; Y = [F, H E], solved with I - H G.
+                    bad = sda_solve(z, lu, piv, e_k, g_k, h_k, f_k, n);
+                    if (bad >= 0) break;
+                    bad = sda_solve(y, lu, piv, f_k, h_k, g_k, e_k, n);
+                    if (bad >= 0) break;
+                    sda_update(e_next, g_next, e_k, g_k, z, n);
+                    sda_update(f_next, h_next, f_k, h_k, y, n);
+                }
                 const double change = max_abs_diff_of(h_next, h_k, n2);
                 gptr sw;
                 sw = e_k, e_k = e_next, e_next = sw;
