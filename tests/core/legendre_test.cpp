@@ -75,6 +75,44 @@ TEST(Legendre, BatchedFunctionsEqualTheScalarOnesBitForBit) {
     EXPECT_THROW(normalized_legendre(0, 1, two, too_few), InternalError);
 }
 
+// Without a power of the sine (normalized_legendre_over_sine): times sin^power, the functions
+// themselves, for powers 0 to m; at the poles the reduced functions of power m are finite and
+// nonzero (Pbar_l^m / sin^m -> sqrt((l + m)! / (l - m)!) / (2^m m!) at x = 1: Pbar_m^m / sin^m is
+// prod_k sqrt((2k - 1) / 2k)), those of a smaller power 0; a power above m is refused.
+TEST(Legendre, OverASineTimesThatSineIsTheFunction) {
+    const std::vector<double> x{-0.999, -0.6, -0.1, 0.0, 0.3, 0.8, 0.9999};
+    for (int m : {0, 1, 2, 7, 40})
+        for (int power : {0, m % 2, m}) {
+            const int lmax = m + 50;
+            const std::size_t degrees = static_cast<std::size_t>(lmax - m + 1);
+            std::vector<double> plain(x.size() * degrees), reduced(x.size() * degrees);
+            normalized_legendre(m, lmax, x, plain);
+            normalized_legendre_over_sine(m, lmax, x, reduced, power);
+            for (std::size_t k = 0; k < x.size(); ++k) {
+                const double sine = std::sqrt((1.0 - x[k]) * (1.0 + x[k]));
+                for (std::size_t d = 0; d < degrees; ++d) {
+                    const double a = plain[k * degrees + d],
+                                 b = reduced[k * degrees + d] * std::pow(sine, power);
+                    ASSERT_NEAR(b, a, 1e-12 * std::max(1.0, std::abs(a)))
+                        << "m " << m << " power " << power << " x " << x[k];
+                }
+            }
+        }
+    const std::vector<double> poles{-1.0, 1.0};
+    for (int m : {1, 2, 5}) {
+        std::vector<double> full(2 * 4), part(2 * 4);
+        normalized_legendre_over_sine(m, m + 3, poles, full, m);
+        normalized_legendre_over_sine(m, m + 3, poles, part, m - 1);
+        double start = 1.0;
+        for (int k = 1; k <= m; ++k) start *= std::sqrt((2.0 * k - 1.0) / (2.0 * k));
+        EXPECT_NEAR(full[4], start, 1e-14) << "m " << m; // x = 1, l = m
+        for (double v : full) EXPECT_NE(v, 0.0) << "m " << m;
+        for (double v : part) EXPECT_EQ(v, 0.0) << "m " << m;
+    }
+    std::vector<double> out(2 * 3);
+    EXPECT_THROW(normalized_legendre_over_sine(2, 4, poles, out, 3), InputError);
+}
+
 // The batched series (blocks of points) is the scalar Clenshaw sum bit for bit, at a Mie-like
 // degree (3000 terms, beta_l = (2l + 1) g^l of HG g = 0.999), at point counts around the block
 // size, including both ends of [-1, 1].

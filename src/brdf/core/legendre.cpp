@@ -20,9 +20,14 @@ std::vector<double> normalized_legendre(int m, int lmax, double x) {
     return out;
 }
 
-void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<double> out) {
-    if (m < 0 || lmax < m)
-        throw InputError(cat("normalized_legendre: bad order/degree (m = ", m, ", lmax = ", lmax, ")"));
+namespace {
+
+// normalized_legendre at every x[k], divided by (1 - x^2)^(power/2): that power of the sine left
+// out of the start Pbar_m^m (the recurrence in l involves x alone).
+void legendre_rows(int m, int lmax, std::span<const double> x, std::span<double> out, int power) {
+    if (m < 0 || lmax < m || power < 0 || power > m)
+        throw InputError(cat("normalized_legendre: bad order/degree/power (m = ", m,
+                             ", lmax = ", lmax, ", power = ", power, ")"));
     const std::size_t count = static_cast<std::size_t>(lmax - m + 1);
     if (out.size() < x.size() * count)
         throw InternalError(cat("normalized_legendre: ", out.size(), " outputs for ", x.size(), " points of ",
@@ -50,8 +55,8 @@ void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<d
         double* rows = out.data() + start * count;
         for (std::size_t k = 0; k < points; ++k) {
             const double s = std::sqrt(std::max(0.0, (1.0 - xs[k]) * (1.0 + xs[k])));
-            zero[k] = m > 0 && s == 0.0;
-            e[k] = m == 0 ? 0.0 : half_log_ratio + m * std::log2(s);
+            zero[k] = m > power && s == 0.0;
+            e[k] = m == 0 ? 0.0 : half_log_ratio + (m > power ? (m - power) * std::log2(s) : 0.0);
             scale[k] = std::exp2(e[k]);
             double* row = rows + k * count;
             if (zero[k]) {
@@ -82,6 +87,17 @@ void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<d
             }
         }
     }
+}
+
+} // namespace
+
+void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<double> out) {
+    legendre_rows(m, lmax, x, out, 0);
+}
+
+void normalized_legendre_over_sine(int m, int lmax, std::span<const double> x,
+                                   std::span<double> out, int power) {
+    legendre_rows(m, lmax, x, out, power);
 }
 
 void legendre_polynomials(int lmax, double x, std::span<double> out) { normalized_legendre(0, lmax, x, out); }

@@ -25,6 +25,13 @@ std::vector<double> normalized_legendre(int m, int lmax, double x);
 /// waits on the one before.
 void normalized_legendre(int m, int lmax, std::span<const double> x, std::span<double> out);
 
+/// Pbar_l^m(x) / (1 - x^2)^(power/2), 0 <= power <= m, laid out as the one above: without `power`
+/// of the factor sin^m that every Pbar_l^m carries. With power = m the rest is a polynomial in x;
+/// with power = m mod 2 it is a polynomial in x times sin^(m - power), a polynomial in 1 - x^2,
+/// so analytic in sin^2 (rte::Reflection's order grid interpolates in sin^2).
+void normalized_legendre_over_sine(int m, int lmax, std::span<const double> x,
+                                   std::span<double> out, int power);
+
 /// Legendre polynomials P_l(x), l = 0 .. lmax, into out (out.size() >= lmax + 1).
 void legendre_polynomials(int lmax, double x, std::span<double> out);
 

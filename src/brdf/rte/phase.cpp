@@ -34,21 +34,21 @@ DeltaM delta_m(const Medium& medium, int first_dropped) {
     return out;
 }
 
-Matrix legendre_basis(int m, int lmax, std::span<const double> mu) {
+Matrix legendre_basis(int m, int lmax, std::span<const double> mu, int sine_power) {
     Matrix psi(static_cast<int>(mu.size()), lmax - m + 1);
-    normalized_legendre(m, lmax, mu, psi.data());
+    normalized_legendre_over_sine(m, lmax, mu, psi.data(), sine_power);
     return psi;
 }
 
 PhasePair phase_components(std::span<const double> beta, int m, std::span<const double> mu_rows,
-                           std::span<const double> mu_cols) {
+                           std::span<const double> mu_cols, int rows_sine_power) {
     const int lmax = static_cast<int>(beta.size()) - 1;
     PhasePair out{Matrix(static_cast<int>(mu_rows.size()), static_cast<int>(mu_cols.size())),
                   Matrix(static_cast<int>(mu_rows.size()), static_cast<int>(mu_cols.size()))};
     if (lmax < m) return out; // p^m = 0 beyond the series
     // Pbar_l^m(-mu) = (-1)^(l+m) Pbar_l^m(mu): with A_lb = beta_l Pbar_l^m(row) and B = Pbar_l^m(col),
     // the even and odd l - m parts are two products, and p+ = even + odd, p- = even - odd.
-    Matrix a = legendre_basis(m, lmax, mu_rows);
+    Matrix a = legendre_basis(m, lmax, mu_rows, rows_sine_power);
     Matrix b = legendre_basis(m, lmax, mu_cols);
     Matrix a_odd(a.rows(), a.cols());
     for (int i = 0; i < a.rows(); ++i)

@@ -33,15 +33,18 @@ struct DeltaM {
 /// series is already shorter than L.
 DeltaM delta_m(const Medium& medium, int first_dropped);
 
-/// psi(i, l - m) = Pbar_l^m(mu_i), l = m .. lmax.
-Matrix legendre_basis(int m, int lmax, std::span<const double> mu);
+/// psi(i, l - m) = Pbar_l^m(mu_i), l = m .. lmax, divided by (1 - mu_i^2)^(sine_power/2)
+/// (normalized_legendre_over_sine).
+Matrix legendre_basis(int m, int lmax, std::span<const double> mu, int sine_power = 0);
 
 /// p^m(s * mu_rows[i], mu_cols[j]) for s = +1 and -1, from the bases of both sets.
 struct PhasePair {
     Matrix plus;  ///< p^m(mu_i, mu_j)
     Matrix minus; ///< p^m(-mu_i, mu_j)
 };
+/// Each row divided by (1 - mu_rows[i]^2)^(rows_sine_power/2), of the sin^m that p^m carries in
+/// each of its directions (legendre_basis).
 PhasePair phase_components(std::span<const double> beta, int m, std::span<const double> mu_rows,
-                           std::span<const double> mu_cols);
+                           std::span<const double> mu_cols, int rows_sine_power = 0);
 
 } // namespace brdf::rte
