@@ -145,7 +145,7 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                 if (task.method == AMB_FIXED_POINT) {
                     cap = task.max_iterations;
                     state = S_FP_SETUP;
-                } else if (task.method == AMB_FAST && !amb_fast_starts_with_doubling(task.m, om)) {
+                } else if (task.method == AMB_FAST && !task.doubling_first) {
                     cap = task.fast_sweeps;
                     state = S_FP_SETUP;
                 } else {

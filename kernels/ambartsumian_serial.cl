@@ -268,7 +268,7 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
     // ---- fixed point (solve_fixed_point; solve_fast's capped first attempt) ----
     int cap = -1;
     if (task.method == AMB_FIXED_POINT) cap = task.max_iterations;
-    else if (task.method == AMB_FAST && !amb_fast_starts_with_doubling(task.m, om)) cap = task.fast_sweeps;
+    else if (task.method == AMB_FAST && !task.doubling_first) cap = task.fast_sweeps;
     if (cap >= 0) {
         gptr x = ws;
         gptr nx = ws + n2;

@@ -40,7 +40,7 @@ typedef struct AmbTask {
     brdf_i32 method;           ///< AMB_FIXED_POINT, AMB_DOUBLING or AMB_FAST
     brdf_i32 max_iterations;   ///< fixed-point sweeps (doubling stops at AMB_DOUBLING_STEPS)
     brdf_i32 fast_sweeps;      ///< AMB_FAST: sweeps before switching to doubling
-    brdf_i32 pad;
+    brdf_i32 doubling_first;   ///< AMB_FAST: straight to doubling (amb_fast_starts_with_doubling)
 } AmbTask;
 
 typedef struct AmbStatus {

@@ -155,10 +155,14 @@ TEST(Solvers, FastGivesUpOnlyAFixedPointThatCannotConvergeByItsCap) {
     const rte::SolveControl control;
     rte::SolveControl capped = control;
     capped.max_iterations = control.fast_sweeps;
-    int given_up = 0, finished = 0;
+    int given_up = 0, finished = 0, straight = 0;
     for (const auto& problem : rte::order_problems(setup)) {
-        if (problem.m == 0) continue; // straight to doubling at albedo > 0.9
         const auto fp = rte::solve_fixed_point(problem, capped);
+        if (amb_fast_starts_with_doubling(problem.order_albedo)) { // m = 0 and the lowest orders
+            ++straight;
+            EXPECT_FALSE(fp.converged) << "m " << problem.m; // the try would have been wasted
+            continue;
+        }
         const auto fast = rte::solve_order(problem, rte::Method::Fast, control);
         if (fp.converged) {
             ++finished;
@@ -172,9 +176,51 @@ TEST(Solvers, FastGivesUpOnlyAFixedPointThatCannotConvergeByItsCap) {
             EXPECT_EQ(max_abs_diff(fast.x, sda.x), 0.0) << "m " << problem.m;
         }
     }
-    std::printf("orders given up early %d, finished by the fixed point %d\n", given_up, finished);
+    std::printf(
+        "orders straight to doubling %d, given up early %d, finished by the fixed point %d\n",
+        straight, given_up, finished);
+    EXPECT_GE(straight, 2);
     EXPECT_GE(given_up, 2);
     EXPECT_GE(finished, 2);
+}
+
+// Method::Fast sends an order straight to doubling by its order albedo
+// (amb_fast_starts_with_doubling): over HG g 0.3-0.99 at albedo 0.9-1 under an interface, 16-64
+// streams, every order it sends there is one whose fixed point would not have finished within the
+// capped try at the service's loosest iteration tolerance (1e-8), and the orders it leaves to the
+// fixed point include ones that finish.
+TEST(Solvers, StraightToDoublingOnlyWhereTheFixedPointCannotFinish) {
+    const rte::SolveControl control;
+    rte::SolveControl capped;
+    capped.tolerance = 1e-8;
+    capped.max_iterations = control.fast_sweeps;
+    int straight = 0, finished = 0;
+    double highest_finished = 0.0;
+    for (int streams : {16, 32, 64})
+        for (double g : {0.3, 0.6, 0.85, 0.95, 0.99})
+            for (double omega : {1.0, 0.999, 0.99, 0.9}) {
+                rte::ReflectionSettings settings;
+                settings.streams = streams;
+                const rte::StackSetup setup =
+                    rte::setup_reflection({omega, hg_beta(g, 1000)}, {1.5}, settings);
+                for (const auto& problem : rte::order_problems(setup)) {
+                    const bool direct = amb_fast_starts_with_doubling(problem.order_albedo);
+                    if (!direct && problem.order_albedo < 0.7) continue; // converge in a few sweeps
+                    const auto fp = rte::solve_fixed_point(problem, capped);
+                    if (direct) ++straight;
+                    if (fp.converged)
+                        ++finished,
+                            highest_finished = std::max(highest_finished, problem.order_albedo);
+                    EXPECT_FALSE(direct && fp.converged)
+                        << streams << " streams, g " << g << ", omega " << omega << ", m "
+                        << problem.m;
+                }
+            }
+    std::printf(
+        "straight to doubling %d; finished by the fixed point %d, the highest order albedo %.3f\n",
+        straight, finished, highest_finished);
+    EXPECT_GT(straight, 50);
+    EXPECT_GT(finished, 20);
 }
 
 TEST(Solvers, FastGivesUpFromTheRateOfAGeometricChange) {

@@ -33,7 +33,7 @@ static_assert(offsetof(AmbTask, m) == 52);
 static_assert(offsetof(AmbTask, method) == 56);
 static_assert(offsetof(AmbTask, max_iterations) == 60);
 static_assert(offsetof(AmbTask, fast_sweeps) == 64);
-static_assert(offsetof(AmbTask, pad) == 68);
+static_assert(offsetof(AmbTask, doubling_first) == 68);
 static_assert(sizeof(AmbStatus) == 16);
 static_assert(offsetof(AmbStatus, iterations) == 0);
 static_assert(offsetof(AmbStatus, converged) == 4);
@@ -106,7 +106,7 @@ void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, bool serial, std:
         t.method = static_cast<brdf_i32>(method);
         t.max_iterations = control.max_iterations;
         t.fast_sweeps = control.fast_sweeps;
-        t.pad = 0;
+        t.doubling_first = amb_fast_starts_with_doubling(p.order_albedo);
         in_size += input_doubles(n);
         out_size += static_cast<std::size_t>(n) * n;
         ws_size += workspace_doubles(n);

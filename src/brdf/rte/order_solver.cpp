@@ -46,7 +46,10 @@ bool OrderProblem::conservative() const { return amb_conservative(m, omega) != 0
 
 OrderProblem make_order_problem(std::span<const double> beta, double omega, int m, const Streams& streams) {
     PhasePair p = phase_components(beta, m, streams.mu, streams.mu);
-    return OrderProblem{m, omega, streams, std::move(p.plus), std::move(p.minus)};
+    double largest = 0.0; // max |chi_l| over l >= m
+    for (std::size_t l = static_cast<std::size_t>(m); l < beta.size(); ++l)
+        largest = std::max(largest, std::abs(beta[l]) / (2.0 * static_cast<double>(l) + 1.0));
+    return OrderProblem{m, omega, streams, std::move(p.plus), std::move(p.minus), omega * largest};
 }
 
 RiccatiMatrices riccati_matrices(const OrderProblem& pr) {
@@ -219,7 +222,7 @@ OrderSolution solve_fast(const OrderProblem& problem, const SolveControl& contro
     // nearly always does (m = 1 at albedo 1 needs 13 to 25). A try that will not makes it plain
     // from its rate within a few sweeps (amb_fast_gives_up) and stops there, not at the cap.
     int sweeps = 0;
-    if (!amb_fast_starts_with_doubling(problem.m, problem.omega)) {
+    if (!amb_fast_starts_with_doubling(problem.order_albedo)) {
         SolveControl capped = control;
         capped.max_iterations = control.fast_sweeps;
         capped.give_up_when_slow = true;

@@ -25,9 +25,10 @@ namespace brdf::rte {
 /// The rules shared with the kernels live in kernels/shared/ambartsumian_rules.h.
 inline constexpr int max_doubling_steps = AMB_DOUBLING_STEPS;
 
-/// Fast (the default) runs the fixed point for orders that converge in a few sweeps (m >= 1, or low
-/// albedo) and switches to doubling when it does not converge within `fast_sweeps`; m = 0 at
-/// albedo > AMB_FAST_DOUBLING_ALBEDO (0.9) goes straight to doubling.
+/// Fast (the default) runs the fixed point for orders that converge in a few sweeps (high m, or low
+/// albedo) and switches to doubling when it does not converge within `fast_sweeps`; an order whose
+/// order albedo is above AMB_FAST_DOUBLING_ALBEDO (0.85; m = 0 at that albedo, and the low orders
+/// of a forward-peaked phase function) goes straight to doubling.
 enum class Method { FixedPoint, Doubling, Fast };
 std::string_view to_string(Method method);
 
@@ -37,6 +38,11 @@ struct OrderProblem {
     Streams streams;
     Matrix p_plus;        ///< p^m(mu_i, mu_j)
     Matrix p_minus;       ///< p^m(-mu_i, mu_j)
+    /// omega max_{l >= m} |beta_l| / (2l + 1): the largest eigenvalue of the order's scattering
+    /// operator (the Pbar_l^m are its eigenfunctions over all directions, of eigenvalue
+    /// beta_l / (2l + 1)), about the fixed point's rate of contraction
+    /// (amb_fast_starts_with_doubling).
+    double order_albedo = 0.0;
     /// True at w = 1, m = 0: the equation is critical and conserves energy exactly.
     bool conservative() const;
 };
