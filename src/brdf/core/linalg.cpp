@@ -297,11 +297,18 @@ Matrix inverse(Matrix a) {
     for (double v : a.data())
         if (!std::isfinite(v))
             throw NumericalError(cat("inverse: a matrix element is not finite (", n, "x", n, ")"));
+    // Row-major A is column-major A^T, and (A^T)^-1 = (A^-1)^T is A^-1 read back row-major: LAPACK
+    // works on the data in place, without the row-major interface's two transposes and its NaN scan
+    // (the loop above has checked the values).
     std::vector<lapack_int> pivot(static_cast<std::size_t>(n));
-    lapack_int info = LAPACKE_dgetrf(LAPACK_ROW_MAJOR, n, n, a.data().data(), n, pivot.data());
+    lapack_int info = LAPACKE_dgetrf_work(LAPACK_COL_MAJOR, n, n, a.data().data(), n, pivot.data());
     if (info > 0)
         throw NumericalError(cat("inverse: matrix is singular at column ", info - 1, " of ", n));
-    if (info == 0) info = LAPACKE_dgetri(LAPACK_ROW_MAJOR, n, a.data().data(), n, pivot.data());
+    if (info == 0) {
+        std::vector<double> work(static_cast<std::size_t>(64) * n); // dgetri's blocked workspace
+        info = LAPACKE_dgetri_work(LAPACK_COL_MAJOR, n, a.data().data(), n, pivot.data(),
+                                   work.data(), static_cast<lapack_int>(work.size()));
+    }
     if (info != 0)
         throw NumericalError(cat("inverse: LAPACK failed (info ", info, ", size ", n, ")"));
     return a;

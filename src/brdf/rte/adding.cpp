@@ -97,15 +97,39 @@ Reflector add_layer(const LayerOperators& l, const Reflector& b, const Streams& 
     return out;
 }
 
+namespace {
+
+// g = diag(q F) on the lower streams: internal reflection of the up-going field.
+std::vector<double> internal_reflection(const SmoothInterface& f, const Streams& lower) {
+    const std::vector<double> q = weights_q(lower);
+    std::vector<double> g(q.size());
+    for (std::size_t k = 0; k < q.size(); ++k) g[k] = q[k] * f.f_below[k];
+    return g;
+}
+
+} // namespace
+
+Matrix bounce_inverse(const SmoothInterface& f, const Matrix& below_nn, const Streams& lower) {
+    const int n = lower.size();
+    if (below_nn.rows() != n || below_nn.cols() != n || static_cast<int>(f.f_below.size()) != n)
+        throw InputError(
+            "bounce_inverse: the reflector, the interface and the streams do not match");
+    return inverse(Matrix::identity(n) - scale_cols(below_nn, internal_reflection(f, lower)));
+}
+
 Reflector bounce_under_interface(const SmoothInterface& f, const Reflector& b, const Streams& lower) {
+    check_sizes(b, lower.size(), static_cast<int>(f.f_e.size()), "add_interface");
+    return bounce_under_interface(f, b, lower, bounce_inverse(f, b.nn, lower));
+}
+
+Reflector bounce_under_interface(const SmoothInterface& f, const Reflector& b, const Streams& lower,
+                                 const Matrix& w) {
     const int n = lower.size();
     const int e = static_cast<int>(f.f_e.size());
     check_sizes(b, n, e, "add_interface");
-    const std::vector<double> q = weights_q(lower);
-    // g = diag(q F) on the lower streams: internal reflection of the up-going field.
-    std::vector<double> g(static_cast<std::size_t>(n));
-    for (int k = 0; k < n; ++k) g[k] = q[k] * f.f_below[k];
-    const Matrix w = inverse(Matrix::identity(n) - scale_cols(b.nn, g)); // (I - B g)^-1
+    if (w.rows() != n || w.cols() != n)
+        throw InputError("add_interface: the bounce inverse does not match the streams");
+    const std::vector<double> g = internal_reflection(f, lower);
     Reflector z;
     z.nn = w * b.nn;
     // Radiance at an off-stream direction bounces between the interface and B's specular part:
@@ -120,13 +144,30 @@ Reflector bounce_under_interface(const SmoothInterface& f, const Reflector& b, c
     return z;
 }
 
-Reflector add_interface(const SmoothInterface& f, const Reflector& b, const Streams& above, const Streams& lower) {
+namespace {
+
+void check_maps(const SmoothInterface& f, const Streams& above, const Streams& lower) {
     const int n1 = above.size();
-    const int e = static_cast<int>(f.f_e.size());
     if (static_cast<int>(f.below_of.size()) != n1 || static_cast<int>(f.f_above.size()) != n1 ||
         static_cast<int>(f.f_below.size()) != lower.size())
         throw InputError("add_interface: the interface's stream maps do not match the streams");
-    const Reflector z = bounce_under_interface(f, b, lower);
+}
+
+} // namespace
+
+Reflector add_interface(const SmoothInterface& f, const Reflector& b, const Streams& above,
+                        const Streams& lower) {
+    check_maps(f, above, lower);
+    check_sizes(b, lower.size(), static_cast<int>(f.f_e.size()), "add_interface");
+    return add_interface(f, b, above, lower, bounce_inverse(f, b.nn, lower));
+}
+
+Reflector add_interface(const SmoothInterface& f, const Reflector& b, const Streams& above,
+                        const Streams& lower, const Matrix& bounce) {
+    check_maps(f, above, lower);
+    const int n1 = above.size();
+    const int e = static_cast<int>(f.f_e.size());
+    const Reflector z = bounce_under_interface(f, b, lower, bounce);
     const double ratio2 = (f.n_above / f.n_below) * (f.n_above / f.n_below);
     Reflector out;
     out.nn = Matrix(n1, n1);

@@ -62,11 +62,22 @@ struct SmoothInterface {
 /// streams (air above) only ee and spec are filled.
 Reflector add_interface(const SmoothInterface& interface, const Reflector& below, const Streams& above,
                         const Streams& lower);
+/// The same with bounce_inverse(interface, below.nn, lower) given.
+Reflector add_interface(const SmoothInterface& interface, const Reflector& below,
+                        const Streams& above, const Streams& lower, const Matrix& bounce);
 
 /// The light below a smooth interface that travels up again, internal reflections summed:
 /// Z = (I - B R_int)^-1 B on the lower medium's streams and directions (add_interface applies the
 /// Fresnel transmissions to it). Exposed for hemispherical sums (the albedo under an interface).
 Reflector bounce_under_interface(const SmoothInterface& interface, const Reflector& below, const Streams& lower);
+/// The same with bounce_inverse(interface, below.nn, lower) given.
+Reflector bounce_under_interface(const SmoothInterface& interface, const Reflector& below,
+                                 const Streams& lower, const Matrix& bounce);
+/// (I - B g)^-1, g = diag(q F) the interface's internal reflection on the lower streams and B what
+/// lies below on them: the sum of the bounces between the two, the same for every off-stream
+/// direction (rte::Reflection keeps it per order).
+Matrix bounce_inverse(const SmoothInterface& interface, const Matrix& below_nn,
+                      const Streams& lower);
 
 /// Fresnel reflectance (unpolarised) of a smooth interface for a ray with cosine mu_1 in a medium of
 /// index n_1 going into one of index n_2: 1 beyond the critical angle.

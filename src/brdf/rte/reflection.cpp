@@ -172,6 +172,7 @@ Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space,
         m_f_above.push_back(piece_reflectance(a, b.index, down));
         m_f_below.push_back(piece_reflectance(b, a.index, up));
     }
+    if (m_setup.stack.top == Top::Smooth) m_top_bounce = std::make_shared<TopBounces>(orders);
     if (!m_setup.semi_infinite()) {
         setup_rough();
         return;
@@ -258,6 +259,18 @@ double Reflection::inside(int k, double mu_air) const {
 Reflection::NystromOrders::NystromOrders(int orders)
     : once(static_cast<std::size_t>(orders)), pencil(static_cast<std::size_t>(orders)),
       minus_w(static_cast<std::size_t>(orders)) {}
+
+Reflection::TopBounces::TopBounces(int orders)
+    : once(static_cast<std::size_t>(orders)), inverse(static_cast<std::size_t>(orders)) {}
+
+const Matrix& Reflection::top_bounce(int m) const {
+    TopBounces& all = *m_top_bounce;
+    std::call_once(all.once[m], [&] {
+        all.inverse[m] =
+            bounce_inverse(top_interface({}), below_top(m, {}).nn, m_setup.layers.front().streams);
+    });
+    return all.inverse[m];
+}
 
 Reflection::NystromOrder Reflection::nystrom(int m) const {
     NystromOrders& all = *m_nystrom;
@@ -406,7 +419,9 @@ Reflector Reflection::external(int m, std::span<const double> mu_air, bool with_
     Reflector b = below_top(m, mu_air, with_single);
     switch (m_setup.stack.top) {
     case Top::None: return b;
-    case Top::Smooth: return add_interface(top_interface(mu_air), b, Streams{}, m_setup.layers.front().streams);
+    case Top::Smooth:
+        return add_interface(top_interface(mu_air), b, Streams{}, m_setup.layers.front().streams,
+                             top_bounce(m));
     case Top::Rough: break;
     }
     throw InternalError("reflection: a rough top's orders come from order_grid");
@@ -500,7 +515,9 @@ bool Reflection::interpolated_orders(std::span<const double> mu, int threads,
         // (half_space_reflector without the single scattering, as the direct path; add_interface's
         // inner part).
         const Matrix inner =
-            bounce_under_interface(top, half_space_reflector(m, u_nodes, false, odd), streams).ee;
+            bounce_under_interface(top, half_space_reflector(m, u_nodes, false, odd), streams,
+                                   top_bounce(m))
+                .ee;
         const ChebyshevTail tail = chebyshev_tail(c, inner);
         if (m == 0) scale = tail.largest;
         Matrix r;
@@ -632,7 +649,7 @@ std::vector<double> Reflection::albedo(std::span<const double> mu_in) const {
     case Top::Smooth: {
         const Reflector b = below_top(0, mus);
         const SmoothInterface f = top_interface(mus);
-        const Reflector z = bounce_under_interface(f, b, s);
+        const Reflector z = bounce_under_interface(f, b, s, top_bounce(0));
         for (int e = 0; e < ne; ++e) {
             for (int k = 0; k < s.size(); ++k) a[e] += 2.0 * s.w[k] * s.mu[k] * (1.0 - f.f_below[k]) * z.en(e, k);
             a[e] *= 1.0 - f.f_e[e];

@@ -198,6 +198,17 @@ private:
     };
     NystromOrder nystrom(int m) const;
     std::shared_ptr<NystromOrders> m_nystrom;
+    /// Smooth top, per order: bounce_inverse, (I - B g)^-1 between the top's internal reflection
+    /// and what lies below it on layer 0's streams. The same for every direction, and an inverse
+    /// that dominated the gamut fit's probes when redone per call; built on first use
+    /// (thread-safe), shared by copies.
+    struct TopBounces {
+        explicit TopBounces(int orders);
+        std::vector<std::once_flag> once;
+        std::vector<Matrix> inverse;
+    };
+    const Matrix& top_bounce(int m) const;
+    std::shared_ptr<TopBounces> m_top_bounce;
 };
 
 } // namespace brdf::rte
