@@ -321,7 +321,8 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                 }
                 break;
             }
-            // -- one step of the symmetric SDA: Z = [E, G E^T] solved with I - G H, H_k+1 = H + (E^T H) Z_1 --
+            // -- the rest of a symmetric SDA step (S_DB_STEP + 0 took t = E^T): Z = [E, G E^T] solved with
+            // I - G H, H_k+1 = H + (E^T H) Z_1 --
             case S_DB_SYMMETRIC_STEP + 1: op = OP_COPY, out = z, ldo = 2 * n, a = e_k; state = S_DB_SYMMETRIC_STEP + 2; break;
             case S_DB_SYMMETRIC_STEP + 2: // Z = [E, G E^T]
                 op = OP_GEMM, out = z + n, ldo = 2 * n, a = g_k, b = t;

@@ -140,57 +140,56 @@ public:
     double inside(int k, double mu_air) const;
 
 private:
-  /// `with_single` false: R^m without the first order of scattering between the two
-  /// off-stream cosines (the term order_grid replaces by the exact one: TMS). Each off-stream
-  /// direction's rows and columns divided by sin^sine_power of it (phase_components); only
-  /// without the single scattering.
-  Reflector half_space_reflector(int m, std::span<const double> u, bool with_single = true,
-                                 int sine_power = 0) const;
-  /// order_grid's orders of a half-space under a smooth top from Chebyshev nodes in sin^2 (false,
-  /// and `grid` untouched, where the nodes would not be fewer than half the directions).
-  bool interpolated_orders(std::span<const double> mu_air, int threads, OrderGrid& grid) const;
-  Reflector substrate_reflector(int m, int n, int e) const;
-  LayerOperators layer_operators(int k, int m, std::span<const double> u, bool with_t_ee) const;
-  SmoothInterface interface_below(int k, std::span<const double> u) const;
-  SmoothInterface top_interface(std::span<const double> mu_air) const;
-  /// What layer 1 sees below its top at cosines u (of layer 1) for order m.
-  Reflector below_top(int m, std::span<const double> mu_air, bool with_single = true) const;
-  /// R^m between air cosines, specular part separate (`with_single`: half_space_reflector).
-  Reflector external(int m, std::span<const double> mu_air, bool with_single = true) const;
-  /// Rough top: the interface, its stream pieces and the body's Z Q per order (constructor).
-  void setup_rough();
-  /// Rough top: the interface kernels for air cosines `air` (from the family where there is one).
-  InterfaceKernels rough_kernels(std::span<const double> air, int orders,
-                                 bool internal_reflection) const;
-  /// Rough top: the body's R^m between the air cosines of `kernels` (T_up Q (Z Q) T_down).
-  Matrix rough_body(int m, const InterfaceKernels& kernels) const;
-  /// The truncated single scattering on the direct paths that order_grid removes.
-  double truncated_single_scattering(int m, int k, double mu_o_air, double mu_i_air) const;
+    /// `with_single` false: R^m without the first order of scattering between the two
+    /// off-stream cosines (the term order_grid replaces by the exact one: TMS). Each off-stream
+    /// direction's rows and columns divided by sin^sine_power of it (phase_components); only
+    /// without the single scattering.
+    Reflector half_space_reflector(int m, std::span<const double> u, bool with_single = true,
+                                   int sine_power = 0) const;
+    /// order_grid's orders of a half-space under a smooth top from Chebyshev nodes in sin^2 (false,
+    /// and `grid` untouched, where the nodes would not be fewer than half the directions).
+    bool interpolated_orders(std::span<const double> mu_air, int threads, OrderGrid& grid) const;
+    Reflector substrate_reflector(int m, int n, int e) const;
+    LayerOperators layer_operators(int k, int m, std::span<const double> u, bool with_t_ee) const;
+    SmoothInterface interface_below(int k, std::span<const double> u) const;
+    SmoothInterface top_interface(std::span<const double> mu_air) const;
+    /// What layer 1 sees below its top at cosines u (of layer 1) for order m.
+    Reflector below_top(int m, std::span<const double> mu_air, bool with_single = true) const;
+    /// R^m between air cosines, specular part separate (`with_single`: half_space_reflector).
+    Reflector external(int m, std::span<const double> mu_air, bool with_single = true) const;
+    /// Rough top: the interface, its stream pieces and the body's Z Q per order (constructor).
+    void setup_rough();
+    /// Rough top: the interface kernels for air cosines `air` (from the family where there is one).
+    InterfaceKernels rough_kernels(std::span<const double> air, int orders, bool internal_reflection) const;
+    /// Rough top: the body's R^m between the air cosines of `kernels` (T_up Q (Z Q) T_down).
+    Matrix rough_body(int m, const InterfaceKernels& kernels) const;
+    /// The truncated single scattering on the direct paths that order_grid removes.
+    double truncated_single_scattering(int m, int k, double mu_o_air, double mu_i_air) const;
 
-  StackSetup m_setup;
-  std::vector<OrderSolution> m_half;
-  std::vector<std::vector<SlabOrder>> m_slabs; ///< per finite layer, per order
-  /// Effective reflectances at the streams (interface_reflectance) of the top interface (per
-  /// stream of layer 0) and of the interface under layer k (above: per stream of layer k; below:
-  /// per stream of layer k + 1); 1 where the light is totally reflected.
-  std::vector<double> m_top_f;
-  std::vector<std::vector<double>> m_f_above, m_f_below;
-  /// Rough top: the interface, the pieces of layer 0's streams and, per order,
-  /// Z Q = (I - R_b Q R_in Q)^-1 R_b Q (R_b: what layer 0 sees below its top, R_in: the
-  /// interface's internal reflection, Q = diag(q)), so that body = T_up Q (Z Q) T_down.
-  std::shared_ptr<const RoughInterface> m_rough;
-  StreamPieces m_rough_pieces;
-  std::vector<Matrix> m_rough_zq;
-  double m_rough_tolerance = 1e-6;
-  std::shared_ptr<const RoughKernelFamily> m_family;
-  /// Half-space, per order: the Nystrom half-node equation (M + u G) r = rhs(u), with
-  /// G = I - (w/2) P+ W - w M X W P- W, reduced once for every direction u, and P- W; built on
-  /// first use (thread-safe), shared by copies.
-  struct NystromOrders {
-      explicit NystromOrders(int orders);
-      std::vector<std::once_flag> once;
-      std::vector<std::optional<ShiftedPencil>> pencil;
-      std::vector<Matrix> minus_w;
+    StackSetup m_setup;
+    std::vector<OrderSolution> m_half;
+    std::vector<std::vector<SlabOrder>> m_slabs; ///< per finite layer, per order
+    /// Effective reflectances at the streams (interface_reflectance) of the top interface (per
+    /// stream of layer 0) and of the interface under layer k (above: per stream of layer k; below:
+    /// per stream of layer k + 1); 1 where the light is totally reflected.
+    std::vector<double> m_top_f;
+    std::vector<std::vector<double>> m_f_above, m_f_below;
+    /// Rough top: the interface, the pieces of layer 0's streams and, per order,
+    /// Z Q = (I - R_b Q R_in Q)^-1 R_b Q (R_b: what layer 0 sees below its top, R_in: the
+    /// interface's internal reflection, Q = diag(q)), so that body = T_up Q (Z Q) T_down.
+    std::shared_ptr<const RoughInterface> m_rough;
+    StreamPieces m_rough_pieces;
+    std::vector<Matrix> m_rough_zq;
+    double m_rough_tolerance = 1e-6;
+    std::shared_ptr<const RoughKernelFamily> m_family;
+    /// Half-space, per order: the Nystrom half-node equation (M + u G) r = rhs(u), with
+    /// G = I - (w/2) P+ W - w M X W P- W, reduced once for every direction u, and P- W; built on
+    /// first use (thread-safe), shared by copies.
+    struct NystromOrders {
+        explicit NystromOrders(int orders);
+        std::vector<std::once_flag> once;
+        std::vector<std::optional<ShiftedPencil>> pencil;
+        std::vector<Matrix> minus_w;
     };
     struct NystromOrder {
         const ShiftedPencil& pencil;
