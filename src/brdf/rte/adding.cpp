@@ -117,18 +117,19 @@ Matrix bounce_inverse(const SmoothInterface& f, const Matrix& below_nn, const St
     return inverse(Matrix::identity(n) - scale_cols(below_nn, internal_reflection(f, lower)));
 }
 
-Reflector bounce_under_interface(const SmoothInterface& f, const Reflector& b, const Streams& lower) {
-    check_sizes(b, lower.size(), static_cast<int>(f.f_e.size()), "add_interface");
-    return bounce_under_interface(f, b, lower, bounce_inverse(f, b.nn, lower));
-}
+namespace {
 
-Reflector bounce_under_interface(const SmoothInterface& f, const Reflector& b, const Streams& lower,
-                                 const Matrix& w) {
+// bounce_under_interface with W = (I - B g)^-1 given, or (null) computed here.
+Reflector bounced(const SmoothInterface& f, const Reflector& b, const Streams& lower,
+                  const Matrix* given) {
     const int n = lower.size();
     const int e = static_cast<int>(f.f_e.size());
     check_sizes(b, n, e, "add_interface");
-    if (w.rows() != n || w.cols() != n)
-        throw InputError("add_interface: the bounce inverse does not match the streams");
+    const Matrix computed = given ? Matrix() : bounce_inverse(f, b.nn, lower);
+    const Matrix& w = given ? *given : computed;
+    if (w.rows() != n || w.cols() != n || static_cast<int>(f.f_below.size()) != n)
+        throw InputError(
+            "add_interface: the bounce inverse or the interface does not match the streams");
     const std::vector<double> g = internal_reflection(f, lower);
     Reflector z;
     z.nn = w * b.nn;
@@ -144,30 +145,15 @@ Reflector bounce_under_interface(const SmoothInterface& f, const Reflector& b, c
     return z;
 }
 
-namespace {
-
-void check_maps(const SmoothInterface& f, const Streams& above, const Streams& lower) {
+// add_interface with the bounce inverse given, or (null) computed by bounced().
+Reflector with_interface(const SmoothInterface& f, const Reflector& b, const Streams& above,
+                         const Streams& lower, const Matrix* given) {
     const int n1 = above.size();
+    const int e = static_cast<int>(f.f_e.size());
     if (static_cast<int>(f.below_of.size()) != n1 || static_cast<int>(f.f_above.size()) != n1 ||
         static_cast<int>(f.f_below.size()) != lower.size())
         throw InputError("add_interface: the interface's stream maps do not match the streams");
-}
-
-} // namespace
-
-Reflector add_interface(const SmoothInterface& f, const Reflector& b, const Streams& above,
-                        const Streams& lower) {
-    check_maps(f, above, lower);
-    check_sizes(b, lower.size(), static_cast<int>(f.f_e.size()), "add_interface");
-    return add_interface(f, b, above, lower, bounce_inverse(f, b.nn, lower));
-}
-
-Reflector add_interface(const SmoothInterface& f, const Reflector& b, const Streams& above,
-                        const Streams& lower, const Matrix& bounce) {
-    check_maps(f, above, lower);
-    const int n1 = above.size();
-    const int e = static_cast<int>(f.f_e.size());
-    const Reflector z = bounce_under_interface(f, b, lower, bounce);
+    const Reflector z = bounced(f, b, lower, given);
     const double ratio2 = (f.n_above / f.n_below) * (f.n_above / f.n_below);
     Reflector out;
     out.nn = Matrix(n1, n1);
@@ -191,6 +177,28 @@ Reflector add_interface(const SmoothInterface& f, const Reflector& b, const Stre
         out.spec[x] = f.f_e[x] + tx * tx * z.spec[x];
     }
     return out;
+}
+
+} // namespace
+
+Reflector bounce_under_interface(const SmoothInterface& f, const Reflector& b,
+                                 const Streams& lower) {
+    return bounced(f, b, lower, nullptr);
+}
+
+Reflector bounce_under_interface(const SmoothInterface& f, const Reflector& b, const Streams& lower,
+                                 const Matrix& w) {
+    return bounced(f, b, lower, &w);
+}
+
+Reflector add_interface(const SmoothInterface& f, const Reflector& b, const Streams& above,
+                        const Streams& lower) {
+    return with_interface(f, b, above, lower, nullptr);
+}
+
+Reflector add_interface(const SmoothInterface& f, const Reflector& b, const Streams& above,
+                        const Streams& lower, const Matrix& w) {
+    return with_interface(f, b, above, lower, &w);
 }
 
 } // namespace brdf::rte

@@ -155,9 +155,9 @@ OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control
     // Unshifted, A = D^T and B, C are symmetric: the equation is a symmetric (continuous-time)
     // Riccati equation, V = W^T below, and SDA keeps F_k = E_k^T with G_k, H_k symmetric at every
     // step (the SDA of Chu, Fan and Lin 2005 for such equations; by induction on the step formulas,
-    // since (I - H G)^T = I - G H for symmetric G, H). So F is
-    // never formed: the set-up needs two inverses instead of four and each step one LU instead of
-    // two and six products instead of eight, with (I - H G)^-1 H = H (I - G H)^-1 for the H update.
+    // since (I - H G)^T = I - G H for symmetric G, H). So F is never formed: the set-up needs two
+    // inverses instead of four and each step one LU instead of two and six products instead of
+    // eight, with (I - H G)^-1 H = H (I - G H)^-1 for the H update.
     // The conservative shift changes D and B, not A, and breaks that symmetry: the general step.
     const bool symmetric = !pr.conservative();
     // Cayley-transformed start (Guo, Lin and Xu 2006, eqs. 2.6-2.8):
@@ -216,11 +216,12 @@ OrderSolution solve_doubling(const OrderProblem& pr, const SolveControl& control
 }
 
 OrderSolution solve_fast(const OrderProblem& problem, const SolveControl& control) {
-    // A fixed-point sweep costs about 3 N^3, a doubling step about 11 N^3 (17 in
-    // the general form of the conservative m = 0) and doubling needs 9-15
-    // steps (doubling_gamma): the sweeps win whenever they converge within about 30, which m >= 1
-    // nearly always does (m = 1 at albedo 1 needs 13 to 25). A try that will not makes it plain
-    // from its rate within a few sweeps (amb_fast_gives_up) and stops there, not at the cap.
+    // A fixed-point sweep costs about 3 N^3, a doubling step about 11 N^3 (17 in the general form
+    // of the conservative m = 0) and doubling needs 9-15 steps (doubling_gamma): the sweeps win
+    // whenever they converge within about 30, which m >= 1 nearly always does (m = 1 at albedo 1
+    // needs 13 to 25) unless its order albedo says it cannot (amb_fast_starts_with_doubling). A
+    // try that will not makes it plain from its rate within a few sweeps (amb_fast_gives_up) and
+    // stops there, not at the cap.
     int sweeps = 0;
     if (!amb_fast_starts_with_doubling(problem.order_albedo)) {
         SolveControl capped = control;

@@ -30,14 +30,14 @@ constexpr double same_index = 1e-12;
 // many directions as the grid.
 constexpr double interpolated_grid_accuracy = 1e-15;
 
-// Chebyshev points of the first kind in [0, 1], t_j = (1 - cos((2j + 1) pi / 2K)) / 2, and the
-// matrix that interpolates values there to the points x (row per point): the second (true)
-// barycentric formula with the weights (-1)^j sin((2j + 1) pi / 2K) of these points (Berrut and
-// Trefethen 2004, SIAM Review 46, 501, eqs. 4.2 and 5.3); a point on a node takes that node's
-// value.
+// Chebyshev points of the first kind in [0, 1], t_j = (1 - cos((2j + 1) pi / 2K)) / 2, the matrix
+// that interpolates values there to the points x (row per point): the second (true) barycentric
+// formula with the weights (-1)^j sin((2j + 1) pi / 2K) of these points (Berrut and Trefethen 2004,
+// SIAM Review 46, 501, eqs. 4.2 and 5.3; a point on a node takes that node's value), and the one
+// that takes them to Chebyshev coefficients, T_kj = (2 - delta_k0) / K cos(k (2j + 1) pi / 2K).
 struct ChebyshevInterpolation {
     std::vector<double> nodes;
-    Matrix to_points;
+    Matrix to_points, to_coefficients;
 };
 
 ChebyshevInterpolation chebyshev_interpolation(int k, std::span<const double> x) {
@@ -59,26 +59,26 @@ ChebyshevInterpolation chebyshev_interpolation(int k, std::span<const double> x)
         for (int j = 0; j < k; ++j) sum += c.to_points(a, j) = weight[j] / (x[a] - c.nodes[j]);
         for (int j = 0; j < k; ++j) c.to_points(a, j) /= sum;
     }
+    c.to_coefficients = Matrix(k, k);
+    for (int i = 0; i < k; ++i)
+        for (int j = 0; j < k; ++j)
+            c.to_coefficients(i, j) = (i == 0 ? 1.0 : 2.0) / k *
+                                      std::cos(i * (2.0 * j + 1.0) * std::numbers::pi / (2.0 * k));
     return c;
 }
 
-// The Chebyshev coefficients C = T V T^T of values V on the K x K first-kind grid
-// (T_kj = (2 - delta_k0) / K cos(k (2j + 1) pi / 2K)): the largest of all, and the largest of the
-// last two rows and columns, about what the interpolant misses.
+// The Chebyshev coefficients C = T V T^T of values V on the K x K first-kind grid (T:
+// to_coefficients): the largest of all, and the largest of the last two rows and columns, about
+// what the interpolant misses.
 struct ChebyshevTail {
     double largest = 0.0, tail = 0.0;
 };
 
 ChebyshevTail chebyshev_tail(const ChebyshevInterpolation& c, const Matrix& values) {
     const int k = static_cast<int>(c.nodes.size());
-    Matrix transform(k, k);
-    for (int i = 0; i < k; ++i)
-        for (int j = 0; j < k; ++j)
-            transform(i, j) = (i == 0 ? 1.0 : 2.0) / k *
-                              std::cos(i * (2.0 * j + 1.0) * std::numbers::pi / (2.0 * k));
     Matrix half, coefficients;
-    gemm(transform, false, values, false, half);
-    gemm(half, false, transform, true, coefficients);
+    gemm(c.to_coefficients, false, values, false, half);
+    gemm(half, false, c.to_coefficients, true, coefficients);
     ChebyshevTail out;
     for (int i = 0; i < k; ++i)
         for (int j = 0; j < k; ++j) {
@@ -506,8 +506,8 @@ bool Reflection::interpolated_orders(std::span<const double> mu, int threads,
     }
     const SmoothInterface top = top_interface(mu_nodes);
     const Streams& streams = m_setup.layers.front().streams;
-    double scale =
-        0.0; // order 0's largest coefficient: what every order's error is measured against
+    // Order 0's largest coefficient: what every order's error is measured against.
+    double scale = 0.0;
     std::atomic<int> interpolated = 0;
     const auto order = [&](int m) {
         const int odd = m % 2;
@@ -521,8 +521,10 @@ bool Reflection::interpolated_orders(std::span<const double> mu, int threads,
         const ChebyshevTail tail = chebyshev_tail(c, inner);
         if (m == 0) scale = tail.largest;
         Matrix r;
-        if (tail.tail <=
-            interpolated_grid_accuracy * 100.0 * std::max(scale, tail.largest)) { // K-term rounding
+        // At rounding: the target, with room for the rounding of the transform's K-term sums.
+        const bool resolved =
+            tail.tail <= interpolated_grid_accuracy * 100.0 * std::max(scale, tail.largest);
+        if (resolved) {
             Matrix rows;
             gemm(c.to_points, false, inner, false, rows); // E x K
             gemm(rows, false, c.to_points, true, r);      // E x E
