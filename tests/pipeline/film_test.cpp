@@ -71,6 +71,46 @@ void expect_matches_adding(const std::string& file, double tolerance) {
 TEST(AddingReference, HalfSpacesUnderTheInterface) { expect_matches_adding("adding_interface.json", 1e-4); }
 TEST(AddingReference, FilmsTwoLayerStacksAndClearLayers) { expect_matches_adding("adding_stacks.json", 1e-4); }
 
+// The same half-spaces through the tables' path: every reference direction in one order grid with a
+// table's 91 zenith angles, which Reflection::order_grid interpolates from Chebyshev nodes in sin^2
+// (the test above evaluates each pair alone, solved at its own two directions).
+TEST(AddingReference, HalfSpacesUnderTheInterfaceThroughTheTableGrid) {
+    int checked = 0;
+    const json all = reference("adding_interface.json");
+    for (const auto& c : all.at("cases")) {
+        const std::string label = c.at("label");
+        const model::SolvedMaterial m =
+            model::solve_material(spec_from(adding_spec(c, "default")), model::Device::Cpu);
+        const rte::Reflection& r = m.samples.at(0).reflection;
+        std::vector<double> mu;
+        for (int a = 0; a < 91; ++a) mu.push_back(std::cos(rad(a)));
+        const std::size_t first = mu.size(); // then every reference direction's own cosine
+        for (const auto& v : c.at("values")) mu.push_back(std::cos(rad(v[0])));
+        for (const auto& v : c.at("values")) mu.push_back(std::cos(rad(v[1])));
+        const rte::OrderGrid grid = r.order_grid(mu);
+        ASSERT_GT(grid.nodes, 0) << label;
+        EXPECT_EQ(grid.interpolated, static_cast<int>(grid.orders.size())) << label;
+        const std::size_t count = c.at("values").size();
+        double largest = 0.0, worst = 0.0;
+        for (const auto& v : c.at("values")) largest = std::max(largest, v[3].get<double>());
+        for (std::size_t k = 0; k < count; ++k) {
+            const auto& v = c.at("values")[k];
+            const double ti = v[0], to = v[1], phi = v[2], ref = v[3];
+            if (ti > 85.0 || to > 85.0) continue;
+            const int i = static_cast<int>(first + k), o = static_cast<int>(first + count + k);
+            double sum = r.single_scattering(grid.mu[o], grid.mu[i], rad(phi));
+            for (std::size_t q = 0; q < grid.orders.size(); ++q)
+                sum += (q == 0 ? 1.0 : 2.0) * (q % 2 == 0 ? 1.0 : -1.0) * grid.orders[q](o, i) *
+                       std::cos(q * rad(phi));
+            const double ours = std::max(0.0, sum) / std::numbers::pi;
+            worst = std::max(worst, std::abs(ours - ref) / std::max(std::abs(ref), 1e-3 * largest));
+        }
+        EXPECT_LT(worst, 1e-4) << label;
+        ++checked;
+    }
+    EXPECT_EQ(checked, 18);
+}
+
 // ---- Limits a film must meet, through the spec ----------------------------------------------------
 
 json hg_medium(double omega, double g, std::optional<double> depth) {
