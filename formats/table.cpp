@@ -31,6 +31,10 @@ BrdfTable::BrdfTable() {
         if (cell_below_horizon(cell)) set_no_data(cell);
 }
 
+BrdfTable::BrdfTable(Unwritten) {
+    for (auto& plane : channels) plane.resize(cells);
+}
+
 std::size_t BrdfTable::data_cells() const {
     std::size_t n = 0;
     for (std::size_t cell = 0; cell < cells; ++cell) n += has_data(cell);

@@ -17,8 +17,10 @@
 #include <array>
 #include <cstddef>
 #include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace brdf::formats {
@@ -40,16 +42,42 @@ std::string canonical_colorspace(std::string_view name);
 /// "red", "green", "blue" for channel 0, 1, 2.
 const char* channel_name(int channel);
 
+/// std::allocator, except that a vector's resize() leaves new doubles unwritten: a table's planes
+/// (35 MB) are then first touched by what fills them, the fill's threads or a file read, instead
+/// of being zeroed on one core before being written again.
+template <class T>
+struct UnwrittenAllocator : std::allocator<T> {
+    template <class U>
+    struct rebind {
+        using other = UnwrittenAllocator<U>;
+    };
+    UnwrittenAllocator() = default;
+    template <class U>
+    UnwrittenAllocator(const UnwrittenAllocator<U>&) noexcept {}
+    template <class U, class... Args>
+    void construct(U* p, Args&&... args) {
+        if constexpr (sizeof...(Args) == 0) ::new (static_cast<void*>(p)) U;
+        else ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+
+/// One channel of a table: `cells` values.
+using TablePlane = std::vector<double, UnwrittenAllocator<double>>;
+
 struct BrdfTable {
     /// The marker of a cell without data, in all three channels.
     static constexpr double no_data = -1.0;
 
     /// A table with every cell below the horizon marked no_data and every other cell 0.
     BrdfTable();
+    /// A table of `cells` unwritten values per channel, for a caller that writes every cell,
+    /// below the horizon too (a fill, a file read).
+    struct Unwritten {};
+    explicit BrdfTable(Unwritten);
 
     /// channels[c][cell_index(i, j, k)]: BRDF in 1/sr (>= 0), or no_data. Each holds `cells`
     /// values.
-    std::array<std::vector<double>, 3> channels;
+    std::array<TablePlane, 3> channels;
     /// The material spec (JSON text) the table was computed from; empty when unknown.
     std::string spec;
     /// Name and version of the program that made the table; empty when unknown.

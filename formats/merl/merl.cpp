@@ -88,9 +88,9 @@ BrdfTable read_merl(const std::filesystem::path& path) {
         throw FormatError(cat(display(path), ": wrong size (", merl_file_size, " bytes expected, ",
                               size, " found)"));
 
-    BrdfTable table;
+    BrdfTable table(BrdfTable::Unwritten{}); // every value is read from the file
     for (int c = 0; c < 3; ++c) {
-        std::vector<double>& plane = table.channels[c];
+        TablePlane& plane = table.channels[c];
         // The file may shrink between fstat and read (another process rewriting it in place).
         if (file.read_at(header_size + c * plane_bytes, plane.data(), plane_bytes) != plane_bytes)
             throw FormatError(cat(display(path), ": truncated while reading (the file changed)"));
@@ -137,7 +137,7 @@ void write_merl(const std::filesystem::path& path, const BrdfTable& table) {
             const int c = static_cast<int>(b / blocks_per_plane);
             const std::size_t first = (b % blocks_per_plane) * block;
             const std::size_t count = std::min(block, cells - first);
-            const std::vector<double>& values = table.channels[c];
+            const TablePlane& values = table.channels[c];
             for (std::size_t k = 0; k < count; ++k) {
                 const std::size_t cell = first + k;
                 buffer[k] = cell_below_horizon(cell) || !table.has_data(cell)

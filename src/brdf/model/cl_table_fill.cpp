@@ -146,8 +146,9 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
                           &err);
     brdf::cl::check(err, "OpenCL table fill: create buffer inputs");
     // The kernel writes the table's planes in place where the device can (PoCL on the CPU: no
-    // 35 MB device buffer to fault in, nor a copy back); a GPU copies them at the map below.
-    formats::BrdfTable table;
+    // 35 MB device buffer to fault in, nor a copy back); a GPU copies them at the map below. The
+    // kernel writes every cell, below the horizon too: the planes start unwritten.
+    formats::BrdfTable table(formats::BrdfTable::Unwritten{});
     const std::size_t plane = formats::cells * sizeof(double);
     std::array<::cl::Buffer, 3> out_bufs;
     for (int c = 0; c < 3; ++c) {

@@ -562,7 +562,7 @@ Rgb fill_value_from_cosines(const FillInputs& in, double mu_i, double mu_o, doub
 }
 
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
-    formats::BrdfTable table;
+    formats::BrdfTable table(formats::BrdfTable::Unwritten{}); // every cell is written below
     // Half the cells, each copied to its mirror phi_d -> pi - phi_d (bin k -> 179 - k): reflecting
     // both directions through the plane of the normal and the half vector maps phi_d to -phi_d, and
     // reciprocity (swapping them) adds pi; an isotropic, reciprocal BRDF is unchanged by both, and
@@ -578,7 +578,11 @@ formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
         const std::size_t first = static_cast<std::size_t>(row) * bins;
         for (std::size_t k = 0; k < bins / 2; ++k) {
             const std::size_t cell = first + k;
-            if (formats::cell_below_horizon(cell)) continue;
+            if (formats::cell_below_horizon(cell)) {
+                table.set_no_data(cell);
+                table.set_no_data(first + bins - 1 - k);
+                continue;
+            }
             const formats::CellIndices ix = formats::cell_indices(cell);
             const formats::DirectionPair d = formats::to_directions(
                 formats::theta_h_centre(ix.theta_h), formats::theta_d_centre(ix.theta_d), formats::phi_d_centre(ix.phi_d));

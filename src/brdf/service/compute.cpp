@@ -214,13 +214,16 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     progress.stage("table");
     auto t = std::chrono::steady_clock::now();
     const model::FillInputs fill = model::prepare_fill(solved);
-    // The MERL/EXR table only when one of them is written (the renderer formats use `fill`).
-    formats::BrdfTable table;
-    if (std::any_of(formats.begin(), formats.end(), [](const std::string& f) { return f == "merl" || f == "exr"; }))
+    // The MERL/EXR table only when one of them is written (the renderer formats use `fill`): a
+    // table is 35 MB, filled once (an empty one first would be zeroed and marked for nothing).
+    const std::string spec_json = spec.resolved.dump();
+    std::optional<formats::BrdfTable> table;
+    if (std::any_of(formats.begin(), formats.end(), [](const std::string& f) { return f == "merl" || f == "exr"; })) {
         table = model::fill_table(fill, options.device);
-    table.spec = spec.resolved.dump();
-    table.generator = std::string(generator_string);
-    table.colorspace = std::string(material::to_string(spec.colorspace)); // EXR chromaticities follow
+        table->spec = spec_json;
+        table->generator = std::string(generator_string);
+        table->colorspace = std::string(material::to_string(spec.colorspace)); // EXR chromaticities follow
+    }
     solved.seconds.table = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     progress.stage("write");
     t = std::chrono::steady_clock::now();
@@ -235,12 +238,12 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     std::vector<std::future<void>> writes;
     for (const std::string& f : formats) {
         const fs::path path = output_path(options.output_dir, spec.name, f);
-        writes.push_back(std::async(std::launch::async, [path, f, &table, &solved, &options, &fill] {
-            if (f == "merl") formats::write_merl(path, table);
-            else if (f == "spectral_exr") write_spectral_table(path, solved, table.spec, options.device);
+        writes.push_back(std::async(std::launch::async, [path, f, &table, &spec_json, &solved, &options, &fill] {
+            if (f == "merl") formats::write_merl(path, *table);
+            else if (f == "spectral_exr") write_spectral_table(path, solved, spec_json, options.device);
             else if (f == "fourier") write_fourier_output(path, solved, fill, renderer_resolution(solved.settings.tolerance));
             else if (f == "rgl") write_rgl_output(path, solved, fill, renderer_resolution(solved.settings.tolerance));
-            else formats::write_exr(path, table);
+            else formats::write_exr(path, *table);
         }));
         outcome.outputs.push_back(path);
         if (f == "rgl" && rgl_output_spectral(solved)) outcome.outputs.push_back(rgl_rgb_companion_path(path));
