@@ -94,25 +94,40 @@ Rgb cubic_rgb_table(const double* table, int points, int channels, double x) {
     return out;
 }
 
+// One single-scattering term's path for a direction pair: what multiplies its phase table, the
+// factor A(mu_o) A(mu_i) / (n^2 pi (u_o + u_i)) times the slab's (1 - exp(-tau (1/u_o + 1/u_i))),
+// and where the table is read, x = (u + 1) / 2. Snell: sin(theta inside) = sin(theta in air) / n,
+// so only the cosines inside need a square root.
+struct TermPath {
+    double value;
+    double x;
+};
+
+TermPath term_path(double n, double tau, const double* transmission, int kf, double mu_i,
+                   double sin_i, double mu_o, double sin_o, double cos_phi) {
+    const double inv_n2 = 1.0 / (n * n);
+    const double ui = std::sqrt(1.0 - sin_i * sin_i * inv_n2),
+                 uo = std::sqrt(1.0 - sin_o * sin_o * inv_n2);
+    const double cos_scatter = std::clamp(-uo * ui - sin_o * sin_i * inv_n2 * cos_phi, -1.0, 1.0);
+    // tab(mu) = A(mu) / (n sqrt(pi)): the term's factor A(mu_o) A(mu_i) / (n^2 pi).
+    const double factor = cubic_table(transmission, kf, mu_o) * cubic_table(transmission, kf, mu_i);
+    const double slab = std::isinf(tau) ? 1.0 : -std::expm1(-tau * (1.0 / uo + 1.0 / ui));
+    const double u = std::sqrt(0.5 * (1.0 - cos_scatter)) - std::sqrt(0.5 * (1.0 + cos_scatter));
+    return {factor / (uo + ui) * slab, 0.5 * (u + 1.0)};
+}
+
 // Single scattering with the full phase function, per term (its own refraction), added to `out`.
-// Snell: sin(theta inside) = sin(theta in air) / n, so only the cosines inside need a square root.
 void add_single_scattering(const FillInputs& in, double mu_i, double mu_o, double cos_phi, Rgb& out) {
     const double sin_i = std::sqrt(std::max(0.0, 1.0 - mu_i * mu_i));
     const double sin_o = std::sqrt(std::max(0.0, 1.0 - mu_o * mu_o));
     const int kp = in.phase_points, kf = in.fresnel_points;
     for (int s = 0; s < in.samples; ++s) {
-        const double n = in.refractive_index[s], inv_n2 = 1.0 / (n * n);
-        const double ui = std::sqrt(1.0 - sin_i * sin_i * inv_n2), uo = std::sqrt(1.0 - sin_o * sin_o * inv_n2);
-        const double cos_scatter = std::clamp(-uo * ui - sin_o * sin_i * inv_n2 * cos_phi, -1.0, 1.0);
-        // tab(mu) = A(mu) / (n sqrt(pi)): the term's factor A(mu_o) A(mu_i) / (n^2 pi).
-        const double* t = &in.transmission[static_cast<std::size_t>(s) * kf];
-        const double factor = cubic_table(t, kf, mu_o) * cubic_table(t, kf, mu_i);
-        const double slab = std::isinf(in.tau[s]) ? 1.0 : -std::expm1(-in.tau[s] * (1.0 / uo + 1.0 / ui));
-        const double v = factor / (uo + ui) * slab;
-        const double u = std::sqrt(0.5 * (1.0 - cos_scatter)) - std::sqrt(0.5 * (1.0 + cos_scatter));
+        const TermPath path = term_path(in.refractive_index[s], in.tau[s],
+                                        &in.transmission[static_cast<std::size_t>(s) * kf], kf,
+                                        mu_i, sin_i, mu_o, sin_o, cos_phi);
         const double* table = &in.phase[static_cast<std::size_t>(s) * kp * in.channels];
-        const Rgb phase = cubic_rgb_table(table, kp, in.channels, 0.5 * (u + 1.0));
-        for (int c = 0; c < 3; ++c) out[c] += v * phase[c];
+        const Rgb phase = cubic_rgb_table(table, kp, in.channels, path.x);
+        for (int c = 0; c < 3; ++c) out[c] += path.value * phase[c];
     }
 }
 
@@ -220,66 +235,103 @@ struct SingleScatteringTerm {
     std::vector<double> transmission; // fresnel_table_points values
 };
 
-// Appends a term with the refraction and path factor of `geometry` and the phase table
-// sum_k coefficient_k weight_k phase_k over `sources` (RGB).
-void append_term(FillInputs& in, const SingleScatteringTerm& geometry,
-                 const std::vector<const SingleScatteringTerm*>& sources, const std::vector<Rgb>& weights) {
+// A term of the fill: the refraction and path factor of `geometry`, and the phase table
+// sum_k weight_k phase_k over `sources` (RGB).
+struct TermRecipe {
+    const SingleScatteringTerm* geometry = nullptr;
+    std::vector<std::pair<const SingleScatteringTerm*, Rgb>> sources;
+};
+
+// Sets the single-scattering terms of `in` to `recipes`, their phase tables one per core.
+void set_terms(FillInputs& in, const std::vector<TermRecipe>& recipes) {
+    const int channels = in.channels;
+    const std::size_t block = channels * static_cast<std::size_t>(phase_table_points);
+    in.samples = static_cast<int>(recipes.size());
     in.phase_points = phase_table_points;
     in.fresnel_points = fresnel_table_points;
-    const int channels = in.channels;
-    const std::size_t base = in.phase.size();
-    in.phase.resize(base + channels * static_cast<std::size_t>(phase_table_points), 0.0);
-    for (std::size_t k = 0; k < sources.size(); ++k)
-        for (int p = 0; p < phase_table_points; ++p)
-            for (int c = 0; c < channels; ++c)
-                in.phase[base + channels * static_cast<std::size_t>(p) + c] += weights[k][c] * sources[k]->phase[p];
-    in.refractive_index.push_back(geometry.index);
-    in.tau.push_back(geometry.tau);
-    in.transmission.insert(in.transmission.end(), geometry.transmission.begin(), geometry.transmission.end());
-    ++in.samples;
-}
-
-// Moves the single-scattering terms of `from` into `to`.
-void take_terms(FillInputs& from, FillInputs& to) {
-    to.samples = from.samples;
-    to.phase_points = from.phase_points;
-    to.fresnel_points = from.fresnel_points;
-    to.phase = std::move(from.phase);
-    to.refractive_index = std::move(from.refractive_index);
-    to.transmission = std::move(from.transmission);
-    to.tau = std::move(from.tau);
+    in.phase.assign(recipes.size() * block, 0.0);
+    in.refractive_index.clear();
+    in.tau.clear();
+    in.transmission.clear();
+    for (const TermRecipe& r : recipes) {
+        in.refractive_index.push_back(r.geometry->index);
+        in.tau.push_back(r.geometry->tau);
+        in.transmission.insert(in.transmission.end(), r.geometry->transmission.begin(),
+                               r.geometry->transmission.end());
+    }
+    parallel_for(static_cast<int>(recipes.size()), available_cpus(), [&](int j) {
+        double* phase = &in.phase[static_cast<std::size_t>(j) * block];
+        for (const auto& [source, weight] : recipes[static_cast<std::size_t>(j)].sources)
+            for (int p = 0; p < phase_table_points; ++p)
+                for (int c = 0; c < channels; ++c)
+                    phase[channels * static_cast<std::size_t>(p) + c] +=
+                        weight[c] * source->phase[p];
+    });
 }
 
 // The probe set that decides whether shared terms may stand in for the per-sample ones: 0 to 89.7
 // degrees in both zenith angles, 0 to 180 in azimuth, with the per-sample sum there and its scale,
 // the same sum with absolute colour weights (the size of what the terms add up to, whatever their
-// signs).
+// signs). Each term's path at each probe is kept: a node set is judged from the terms' own phase
+// tables, without building its own.
 struct Probe {
-    double mu_i, mu_o, cos_phi;
+    double mu_i, sin_i, mu_o, sin_o, cos_phi;
     Rgb exact, scale;
+    std::vector<TermPath> paths; // [term]
 };
 
-std::vector<Probe> probe_set(const FillInputs& exact, const FillInputs& scale) {
+TermPath probe_path(const SingleScatteringTerm& t, const Probe& p) {
+    return term_path(t.index, t.tau, t.transmission.data(), fresnel_table_points, p.mu_i, p.sin_i,
+                     p.mu_o, p.sin_o, p.cos_phi);
+}
+
+std::vector<Probe> probe_set(const std::vector<SingleScatteringTerm>& terms) {
     constexpr double degrees[] = {0.0, 20.0, 40.0, 55.0, 65.0, 75.0, 82.0, 86.0, 88.5, 89.7};
     std::vector<Probe> out;
     for (double ti : degrees)
         for (double to : degrees)
             for (int k = 0; k <= 4; ++k) {
-                Probe p{std::cos(ti * std::numbers::pi / 180.0), std::cos(to * std::numbers::pi / 180.0),
-                        std::cos(k * std::numbers::pi / 4.0), {}, {}};
-                add_single_scattering(exact, p.mu_i, p.mu_o, p.cos_phi, p.exact);
-                add_single_scattering(scale, p.mu_i, p.mu_o, p.cos_phi, p.scale);
-                out.push_back(p);
+                const double mu_i = std::cos(ti * std::numbers::pi / 180.0),
+                             mu_o = std::cos(to * std::numbers::pi / 180.0);
+                Probe p{mu_i,
+                        std::sqrt(std::max(0.0, 1.0 - mu_i * mu_i)),
+                        mu_o,
+                        std::sqrt(std::max(0.0, 1.0 - mu_o * mu_o)),
+                        std::cos(k * std::numbers::pi / 4.0),
+                        {},
+                        {},
+                        {}};
+                for (const SingleScatteringTerm& t : terms) {
+                    const TermPath path = probe_path(t, p);
+                    const double v =
+                        path.value * cubic_table(t.phase.data(), phase_table_points, path.x);
+                    for (int c = 0; c < 3; ++c) {
+                        p.exact[c] += t.weight[c] * v;
+                        p.scale[c] += std::abs(t.weight[c]) * v;
+                    }
+                    p.paths.push_back(path);
+                }
+                out.push_back(std::move(p));
             }
     return out;
 }
 
-// Largest error of `shared` on the probe set, per channel relative to its scale.
-double probe_error(const std::vector<Probe>& probes, const FillInputs& shared) {
+// Largest error on the probe set, per channel relative to its scale, of the shared terms at the
+// terms `node` with phase tables sum_s weights[j][s] phase_s.
+double probe_error(const std::vector<Probe>& probes, const std::vector<SingleScatteringTerm>& terms,
+                   const std::vector<std::size_t>& node,
+                   const std::vector<std::vector<Rgb>>& weights) {
     double worst = 0.0;
     for (const Probe& p : probes) {
         Rgb a{};
-        add_single_scattering(shared, p.mu_i, p.mu_o, p.cos_phi, a);
+        for (std::size_t j = 0; j < node.size(); ++j) {
+            const TermPath& path = p.paths[node[j]];
+            for (std::size_t s = 0; s < terms.size(); ++s) {
+                const double v =
+                    path.value * cubic_table(terms[s].phase.data(), phase_table_points, path.x);
+                for (int c = 0; c < 3; ++c) a[c] += weights[j][s][c] * v;
+            }
+        }
         for (int c = 0; c < 3; ++c)
             if (p.scale[c] > 0.0) worst = std::max(worst, std::abs(a[c] - p.exact[c]) / p.scale[c]);
     }
@@ -298,30 +350,24 @@ double probe_error(const std::vector<Probe>& probes, const FillInputs& shared) {
 // several layers) keeps one term per sample.
 void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, double tolerance, FillInputs& in) {
     const std::size_t count = terms.size();
-    FillInputs exact;
-    exact.channels = in.channels;
-    for (const SingleScatteringTerm& t : terms) append_term(exact, t, {&t}, {t.weight});
     const bool half_space = std::all_of(terms.begin(), terms.end(),
                                         [](const SingleScatteringTerm& t) { return t.top_layer && std::isinf(t.tau); });
-    const auto keep_per_sample = [&] { take_terms(exact, in); };
+    const auto keep_per_sample = [&] {
+        std::vector<TermRecipe> recipes;
+        for (const SingleScatteringTerm& t : terms) recipes.push_back({&t, {{&t, t.weight}}});
+        set_terms(in, recipes);
+    };
     if (count < 2 || !half_space) return keep_per_sample();
-    std::vector<const SingleScatteringTerm*> all;
-    for (const SingleScatteringTerm& t : terms) all.push_back(&t);
     const auto [lo_it, hi_it] = std::minmax_element(terms.begin(), terms.end(), [](const auto& a, const auto& b) {
         return a.index < b.index;
     });
     const double lo = lo_it->index, hi = hi_it->index;
     if (hi - lo <= 1e-12 * hi) { // one refraction for all: one term, exact
-        std::vector<Rgb> weights;
-        for (const SingleScatteringTerm& t : terms) weights.push_back(t.weight);
-        append_term(in, *lo_it, all, weights);
-        return;
+        TermRecipe one{&*lo_it, {}};
+        for (const SingleScatteringTerm& t : terms) one.sources.emplace_back(&t, t.weight);
+        return set_terms(in, {one});
     }
-    FillInputs scale;
-    scale.channels = in.channels;
-    for (const SingleScatteringTerm& t : terms)
-        append_term(scale, t, {&t}, {Rgb{std::abs(t.weight[0]), std::abs(t.weight[1]), std::abs(t.weight[2])}});
-    const std::vector<Probe> probes = probe_set(exact, scale);
+    const std::vector<Probe> probes = probe_set(terms);
     std::size_t tried = 0; // the node count of the last set tried
     for (int nodes = 3; 2 * static_cast<std::size_t>(nodes) <= count; nodes += 2) {
         // The sample nearest each Chebyshev-Lobatto point; a point whose nearest sample is already
@@ -347,14 +393,17 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
             for (std::size_t j = 0; j < node.size(); ++j)
                 weights[j].push_back(Rgb{l[j] * t.weight[0], l[j] * t.weight[1], l[j] * t.weight[2]});
         }
-        FillInputs shared;
-        shared.channels = in.channels;
-        for (std::size_t j = 0; j < node.size(); ++j) append_term(shared, terms[node[j]], all, weights[j]);
-        const double error = probe_error(probes, shared);
+        const double error = probe_error(probes, terms, node, weights);
         if (error <= 0.01 * tolerance) {
             log::debug("table fill: single scattering of ", count, " samples on ", node.size(), " index nodes (",
                       error, " relative on the probe set)");
-            return take_terms(shared, in);
+            std::vector<TermRecipe> recipes(node.size());
+            for (std::size_t j = 0; j < node.size(); ++j) {
+                recipes[j].geometry = &terms[node[j]];
+                for (std::size_t s = 0; s < count; ++s)
+                    recipes[j].sources.emplace_back(&terms[s], weights[j][s]);
+            }
+            return set_terms(in, recipes);
         }
     }
     keep_per_sample();
