@@ -3,7 +3,9 @@
 #include <brdf/core/error.h>
 
 #include <gtest/gtest.h>
+#include <test_support.h>
 
+#include <filesystem>
 #include <thread>
 #include <vector>
 
@@ -85,6 +87,73 @@ TEST(EnsembleCache, TheLeastRecentlyUsedEntriesAreDroppedBeyondTheBudget) {
     const long long computed = cache.stats().computed;
     cache.get(rutile, pmma, 501.0, sizes);
     EXPECT_EQ(cache.stats().computed, computed + 1);
+}
+
+// On disk, an ensemble outlives its process: a second cache on the same folder (a later run) loads
+// it instead of integrating Mie again, every field and moment bit for bit; another request is
+// another file; a damaged file is computed again (and replaced), never read.
+TEST(EnsembleCache, OnDiskARepeatInALaterRunIsLoadedBitForBit) {
+    test::TempDir dir;
+    const SizeDistribution sizes = power_law(0.4, 0.3);
+    EnsembleOptions options;
+    options.tolerance = 1e-5;
+    std::shared_ptr<const Ensemble> first;
+    {
+        EnsembleCache run(std::size_t{16} << 20, dir.path());
+        first = run.get(rutile, pmma, 550.0, sizes, options);
+        run.get(rutile, pmma, 560.0, sizes, options);
+        EXPECT_EQ(run.stats().computed, 2);
+        EXPECT_EQ(run.stats().loaded, 0);
+    }
+    const auto files = [&] {
+        std::vector<std::filesystem::path> out;
+        for (const auto& e : std::filesystem::directory_iterator(dir.path())) out.push_back(e.path());
+        return out;
+    };
+    ASSERT_EQ(files().size(), 2u);
+
+    EnsembleCache later(std::size_t{16} << 20, dir.path());
+    const auto loaded = later.get(rutile, pmma, 550.0, sizes, options);
+    EXPECT_EQ(later.stats().loaded, 1);
+    EXPECT_EQ(later.stats().computed, 0);
+    EXPECT_EQ(loaded->particle_index, first->particle_index);
+    EXPECT_EQ(loaded->m, first->m);
+    for (double Ensemble::*field : {&Ensemble::medium_index, &Ensemble::wavelength_nm, &Ensemble::cext_um2,
+                                    &Ensemble::csca_um2, &Ensemble::cabs_um2, &Ensemble::cback_um2, &Ensemble::qext,
+                                    &Ensemble::qsca, &Ensemble::qabs, &Ensemble::qback, &Ensemble::g,
+                                    &Ensemble::albedo, &Ensemble::mean_volume_um3, &Ensemble::mean_area_um2,
+                                    &Ensemble::r_min_um, &Ensemble::r_max_um, &Ensemble::x_min, &Ensemble::x_max,
+                                    &Ensemble::error_estimate})
+        EXPECT_EQ((*loaded).*field, (*first).*field);
+    EXPECT_EQ(loaded->radius_nodes, first->radius_nodes);
+    EXPECT_EQ(loaded->resonances, first->resonances);
+    EXPECT_EQ(loaded->rule, first->rule);
+    EXPECT_EQ(loaded->legendre, first->legendre);
+    // In this run it is now in memory: no second read.
+    EXPECT_EQ(later.get(rutile, pmma, 550.0, sizes, options).get(), loaded.get());
+    EXPECT_EQ(later.stats().loaded, 1);
+    // Another tolerance is another request: computed, and kept beside the others.
+    EnsembleOptions tighter = options;
+    tighter.tolerance = 1e-6;
+    later.get(rutile, pmma, 550.0, sizes, tighter);
+    EXPECT_EQ(later.stats().computed, 1);
+    EXPECT_EQ(files().size(), 3u);
+
+    // Every file damaged: the next run computes each again, with the same result.
+    for (const auto& f : files()) {
+        std::string bytes = test::read_file(f);
+        bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 1);
+        test::write_file(f, bytes);
+    }
+    EnsembleCache damaged(std::size_t{16} << 20, dir.path());
+    const auto again = damaged.get(rutile, pmma, 550.0, sizes, options);
+    EXPECT_EQ(damaged.stats().computed, 1);
+    EXPECT_EQ(damaged.stats().loaded, 0);
+    EXPECT_EQ(again->legendre, first->legendre);
+    EXPECT_EQ(again->csca_um2, first->csca_um2);
+    EnsembleCache repaired(std::size_t{16} << 20, dir.path());
+    repaired.get(rutile, pmma, 550.0, sizes, options);
+    EXPECT_EQ(repaired.stats().loaded, 1);
 }
 
 } // namespace

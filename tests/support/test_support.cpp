@@ -145,4 +145,15 @@ void write_file(const std::filesystem::path& path, const std::string& content) {
     if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
+ScopedEnv::ScopedEnv(const char* name, const char* value) : m_name(name) {
+    if (const char* old = std::getenv(name)) m_old = old;
+    if (value) ::setenv(name, value, 1);
+    else ::unsetenv(name);
+}
+
+ScopedEnv::~ScopedEnv() {
+    if (m_old) ::setenv(m_name.c_str(), m_old->c_str(), 1);
+    else ::unsetenv(m_name.c_str());
+}
+
 } // namespace brdf::test

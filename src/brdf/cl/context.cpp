@@ -2,6 +2,7 @@
 
 #include <brdf/cl/kernel_sources.h>
 #include <brdf/core/atomic_file.h>
+#include <brdf/core/blob_cache.h>
 #include <brdf/core/error.h>
 #include <brdf/core/hash.h>
 #include <brdf/core/log.h>
@@ -14,6 +15,7 @@
 #include <cstring>
 #include <fcntl.h>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <set>
 #include <sstream>
@@ -177,61 +179,10 @@ void inline_includes(std::string_view text, const std::string& file, const Read&
 }
 
 // ---- disk cache of program binaries ---------------------------------------------------------
-// File opencl/HASH.bin: magic, the full key (checked on load, so a hash collision is a miss, never
-// a wrong program), then the device binary. Written with core's AtomicFile.
+// opencl/HASH.bin under the cache folder (core/blob_cache.h): the full key is checked on load, so
+// a hash collision is a miss, never a wrong program.
 
-constexpr std::string_view cache_magic = "BRDFCLB1";
-constexpr std::uint64_t max_cache_file_bytes = std::uint64_t{1} << 30;
-
-void put_u64(std::string& out, std::uint64_t v) {
-    for (int i = 0; i < 8; ++i) out += static_cast<char>((v >> (8 * i)) & 0xff);
-}
-
-std::uint64_t get_u64(std::string_view in, std::size_t at) {
-    std::uint64_t v = 0;
-    for (int i = 7; i >= 0; --i)
-        v = (v << 8) | static_cast<unsigned char>(in[at + static_cast<std::size_t>(i)]);
-    return v;
-}
-
-// The binary stored under `key`, or empty on a miss (absent, truncated, other key).
-std::vector<unsigned char> cache_load(const fs::path& file, const std::string& key) {
-    std::error_code ec;
-    const std::uintmax_t size = fs::file_size(file, ec);
-    if (ec || size < cache_magic.size() + 16 || size > max_cache_file_bytes) return {};
-    std::ifstream in(file, std::ios::binary);
-    std::string data(static_cast<std::size_t>(size), '\0');
-    if (!in.read(data.data(), static_cast<std::streamsize>(size))) return {};
-    std::string_view view(data);
-    if (view.substr(0, cache_magic.size()) != cache_magic) return {};
-    std::size_t at = cache_magic.size();
-    const std::uint64_t key_len = get_u64(view, at);
-    at += 8;
-    if (key_len != key.size() || size - at < key_len + 8) return {};
-    if (view.substr(at, key_len) != key) return {};
-    at += key_len;
-    const std::uint64_t bin_len = get_u64(view, at);
-    at += 8;
-    if (bin_len == 0 || bin_len != size - at) return {};
-    return std::vector<unsigned char>(data.begin() + static_cast<std::ptrdiff_t>(at), data.end());
-}
-
-bool cache_store(const fs::path& file, const std::string& key,
-                 const std::vector<unsigned char>& binary) {
-    std::string data(cache_magic);
-    put_u64(data, key.size());
-    data += key;
-    put_u64(data, binary.size());
-    data.append(binary.begin(), binary.end());
-    // Concurrent processes (brdfd and brdftool) never read a half-written binary.
-    try {
-        write_file_atomically(file, data);
-        return true;
-    } catch (const Error& e) {
-        log::debug("OpenCL binary cache: ", e.what());
-        return false;
-    }
-}
+constexpr std::string_view cache_magic = "BRDFCLB2";
 
 constexpr std::size_t max_build_log = 64 * 1024;
 
@@ -462,12 +413,7 @@ ContextOptions options_from_environment() {
     ContextOptions options;
     options.device_filter = env("BRDF_OPENCL_DEVICE");
     options.kernel_dir = env("BRDF_KERNEL_DIR");
-    if (const std::string dir = env("BRDF_CACHE_DIR"); !dir.empty())
-        options.cache_dir = dir;
-    else if (const std::string xdg = env("XDG_CACHE_HOME"); !xdg.empty())
-        options.cache_dir = fs::path(xdg) / "brdf-service";
-    else if (const std::string home = env("HOME"); !home.empty())
-        options.cache_dir = fs::path(home) / ".cache" / "brdf-service";
+    options.cache_dir = cache_root();
     return options;
 }
 
@@ -608,22 +554,13 @@ std::string Context::source(std::string_view name) const {
         cat("brdf-cl-cache 1\nplatform ", m_info.platform, "\ndevice ", m_info.name, "\nversion ",
             m_info.version, "\ndriver ", m_info.driver, "\noptions ", options, "\nsource\n", src);
 
-    fs::path cache_file;
-    if (!m_options.cache_dir.empty()) {
-        const fs::path dir = m_options.cache_dir / "opencl";
-        std::error_code ec;
-        fs::create_directories(dir, ec);
-        if (ec)
-            log::debug("OpenCL binary cache skipped: cannot create ", dir.string(), ": ",
-                       ec.message());
-        else
-            cache_file = dir / (fnv1a64_hex(key) + ".bin");
-    }
+    std::optional<BlobCache> cache;
+    if (!m_options.cache_dir.empty()) cache.emplace(m_options.cache_dir / "opencl", cache_magic);
 
     cl_int err = CL_SUCCESS;
-    if (!cache_file.empty()) {
-        std::vector<unsigned char> binary = cache_load(cache_file, key);
-        if (!binary.empty()) {
+    if (cache) {
+        if (const std::optional<std::string> stored = cache->load(key)) {
+            std::vector<unsigned char> binary(stored->begin(), stored->end());
             std::vector<cl_int> status;
             ::cl::Program program(m_context, {m_device}, ::cl::Program::Binaries{std::move(binary)},
                                   &status, &err);
@@ -634,7 +571,7 @@ std::string Context::source(std::string_view name) const {
                 ++m_stats.disk_hits;
                 return program;
             }
-            log::debug("OpenCL binary cache: ", cache_file.string(), " unusable (", error_name(err),
+            log::debug("OpenCL binary cache: ", cache->file(key).string(), " unusable (", error_name(err),
                        "); building '", name, "' from source");
         }
     }
@@ -656,15 +593,15 @@ std::string Context::source(std::string_view name) const {
         ++m_stats.builds;
     }
 
-    if (!cache_file.empty()) {
+    if (cache) {
         // A single device, so CL_PROGRAM_BINARIES holds exactly one binary.
         const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>(&err);
         if (err == CL_SUCCESS && binaries.size() == 1 && !binaries[0].empty() &&
-            cache_store(cache_file, key, binaries[0])) {
+            cache->store(key, std::string_view(reinterpret_cast<const char*>(binaries[0].data()), binaries[0].size()))) {
             const std::lock_guard lock(m_mutex);
             ++m_stats.disk_writes;
         } else {
-            log::debug("OpenCL binary cache: cannot write ", cache_file.string());
+            log::debug("OpenCL binary cache: cannot write ", cache->file(key).string());
         }
     }
     return program;

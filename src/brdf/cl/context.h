@@ -66,7 +66,8 @@ struct ContextOptions {
 };
 
 /// Options from the environment: BRDF_OPENCL_DEVICE, BRDF_KERNEL_DIR, and the cache folder
-/// $BRDF_CACHE_DIR, else $XDG_CACHE_HOME/brdf-service, else $HOME/.cache/brdf-service.
+/// brdf::cache_root() ($BRDF_CACHE_DIR, else $XDG_CACHE_HOME/brdf-service, else
+/// $HOME/.cache/brdf-service; BRDF_CACHE_DIR=off: none).
 ContextOptions options_from_environment();
 
 /// One device as seen by device selection.

@@ -69,16 +69,19 @@ void AtomicFile::write_at(std::uint64_t offset, const void* data, std::size_t n)
     }
 }
 
-void AtomicFile::commit() {
+void AtomicFile::commit(Commit how) {
     if (m_committed || m_fd < 0) throw IoError(cat(m_target.string(), ": committed twice"));
-    // Synced through a descriptor opened by name: a library that wrote temporary() itself may have
-    // replaced the file we created (fsync is per inode, so for our own writes this is the same).
-    const int fd = ::open(m_temp.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) throw IoError(cat(m_target.string(), ": cannot reopen ", m_temp.string(), ": ", reason(errno)));
-    const bool synced = ::fsync(fd) == 0;
-    const int sync_error = errno;
-    ::close(fd);
-    if (!synced) throw IoError(cat(m_target.string(), ": fsync failed: ", reason(sync_error)));
+    if (how == Commit::Durable) {
+        // Synced through a descriptor opened by name: a library that wrote temporary() itself may
+        // have replaced the file we created (fsync is per inode, so for our own writes the same).
+        const int fd = ::open(m_temp.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0)
+            throw IoError(cat(m_target.string(), ": cannot reopen ", m_temp.string(), ": ", reason(errno)));
+        const bool synced = ::fsync(fd) == 0;
+        const int sync_error = errno;
+        ::close(fd);
+        if (!synced) throw IoError(cat(m_target.string(), ": fsync failed: ", reason(sync_error)));
+    }
     const int own = m_fd;
     m_fd = -1;
     if (::close(own) != 0) throw IoError(cat(m_target.string(), ": close failed: ", reason(errno)));
@@ -86,6 +89,7 @@ void AtomicFile::commit() {
         throw IoError(cat(m_target.string(), ": cannot rename ", m_temp.string(),
                           " into place: ", reason(errno)));
     m_committed = true;
+    if (how == Commit::Atomic) return;
     // The rename is durable once the folder's entry is on disk. Failing here does not undo the
     // (already atomic) replacement, and some file systems refuse fsync on folders: only log it.
     const std::filesystem::path folder = folder_of(m_target);

@@ -1,8 +1,9 @@
 #pragma once
 // The one way this project writes a file that others read: tables, reports, previews, the daemon's
-// status and records, the OpenCL binary cache. The data goes into a temporary file beside the target
-// (same folder, so the same file system and an atomic rename), is fsynced, renamed over the target,
-// and the folder is fsynced so that the rename itself survives a power loss. A reader sees the old
+// status and records, the disk caches (core/blob_cache.h: renamed into place, not synced). The data
+// goes into a temporary file beside the target (same folder, so the same file system and an atomic
+// rename), is fsynced, renamed over the target, and the folder is fsynced so that the rename itself
+// survives a power loss. A reader sees the old
 // file or the new one, never a partial one; a writer that fails or is destroyed before commit()
 // removes its temporary. A writer killed outright (SIGKILL) leaves it behind under a name that says
 // what it is, which brdfd's start-up clean-up recognises (service::Spool::is_temporary_name):
@@ -45,10 +46,14 @@ public:
     /// Writes all `n` bytes at `offset` (pwrite: does not move write()'s position). Several threads
     /// may write disjoint ranges at once.
     void write_at(std::uint64_t offset, const void* data, std::size_t n);
-    /// fsync the temporary, rename it over the target, fsync the folder. Throws IoError naming the
-    /// target when any step up to the rename fails (the destructor then removes the temporary); a
-    /// folder that refuses fsync (some network file systems) is only logged at debug level.
-    void commit();
+    /// What commit() makes sure of: Durable, that the new file survives a power loss; Atomic, only
+    /// that it replaces the target at once (a cache, whose reader checks what it reads).
+    enum class Commit { Durable, Atomic };
+    /// fsync the temporary, rename it over the target, fsync the folder (Atomic: only the rename).
+    /// Throws IoError naming the target when any step up to the rename fails (the destructor then
+    /// removes the temporary); a folder that refuses fsync (some network file systems) is only
+    /// logged at debug level.
+    void commit(Commit how = Commit::Durable);
 
 private:
     std::filesystem::path m_target;
