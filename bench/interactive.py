@@ -9,11 +9,13 @@ the peak resident memory of the process and the accuracy next to it:
 
 - the seed material (rutile in acrylic, visible spectrum, MERL + EXR) at "default" and
   "reference", and the same paint under the gloss, satin and matte finishes (ratio to smooth);
+  at "default" also with its Mie ensembles on disk from the run before (a re-run after an edit);
 - the full 90 x 90 x 180 table of an analytic HG g = 0.5, omega = 0.99 half-space at tolerance
   1e-6, against DISORT (cdisort via pydisort, 32 streams) computing the same grid, alternating;
 - eval throughput (200,000 random directions from stdin; the interpolant's error against
   `eval --exact`), render 512 x 512, lobes of two specs;
-- matting agents: silica spheres r_eff 5 um and 40 um (v_eff 0.1) in acrylic.
+- matting agents: silica spheres r_eff 5 um and 40 um (v_eff 0.1) in acrylic (40 um also with its
+  Mie ensembles on disk).
 
 Each run starts with the disk flushed (os.sync): a run's own fsync of its tables is timed, the
 write-back of the runs before it is not.
@@ -28,6 +30,7 @@ import os
 import platform
 import random
 import re
+import shutil
 import statistics
 import subprocess
 import sys
@@ -53,10 +56,14 @@ def spec(work, name, base, **changes):
     return path
 
 
-def measure(cmd, stdin_text=None, timeout=900):
+def measure(cmd, stdin_text=None, timeout=900, mie_on_disk=False):
     """Runs cmd in a fresh Python child so ru_maxrss is this command's alone. The disk is flushed
     first: every `compute` fsyncs its tables (35 MB of MERL), and with the runs before still being
-    written back that fsync waited for them too (the HG row took 0.20-0.43 s within one run)."""
+    written back that fsync waited for them too (the HG row took 0.20-0.43 s within one run).
+    The Mie ensembles kept on disk (docs/mie.md) are dropped first unless mie_on_disk: a row is a
+    new material unless it says otherwise."""
+    if not mie_on_disk:
+        shutil.rmtree(os.path.join(os.environ["BRDF_CACHE_DIR"], "mie"), ignore_errors=True)
     os.sync()
     helper = ("import json,resource,subprocess,sys,time;"
               "a=json.loads(sys.argv[1]);i=open(a['stdin']).read() if a['stdin'] else None;"
@@ -136,6 +143,9 @@ def main():
     tool = a.brdftool
     work = tempfile.mkdtemp(prefix="brdf-bench-")
     out = os.path.join(work, "out")
+    # The run's own cache folder: the user's is left alone, and every row starts from a known state
+    # (OpenCL programs built once by the warm-up below; Mie ensembles as each row says).
+    os.environ["BRDF_CACHE_DIR"] = os.path.join(work, "cache")
     rows = []
 
     def row(what, target, result, accuracy):
@@ -155,6 +165,7 @@ def main():
     if core == "Prescott" and (" avx512f" in flags or " avx2" in flags):
         forced = "SkylakeX" if " avx512f" in flags else "Haswell"
     plain_runs, forced_runs = [], []
+    measure([tool, "compute", seed, "-o", out, "--force"])  # warm-up: the OpenCL programs' binaries
     for _ in range(a.repeat):
         plain_runs.append(measure([tool, "compute", seed, "-o", out, "--force"]))
         if forced:
@@ -168,6 +179,9 @@ def main():
     r = report(out, "seed")
     row("seed material, `compute` at \"default\" (MERL + EXR)", "<= 0.3 s",
         f"{t_seed:.2f} s, {m_seed:.0f} MiB", estimate(r) + f", {r['solver']['streams']} streams")
+    t, m, _ = median_of(a.repeat, lambda: measure([tool, "compute", seed, "-o", out, "--force"], mie_on_disk=True))
+    row("the same, its particles' Mie ensembles on disk from the run before (a re-run after changing the "
+        "pigment amount, film, substrate or finish)", "", f"{t:.2f} s, {m:.0f} MiB", "the same tables, byte for byte")
     if forced:
         t = statistics.median(w for w, _, _ in forced_runs)
         row(f"the same with OpenBLAS's {forced} kernels forced (`OPENBLAS_CORETYPE={forced}`), alternating "
@@ -254,6 +268,10 @@ def main():
             r = report(out, f"silica-{r_um}um")
             row(f"matting agent: silica r_eff {r_um} um, v_eff 0.1, in acrylic, \"default\"",
                 "<= 2 s" if r_um == 5 else "<= 5 s", f"{t:.1f} s, {m:.0f} MiB", estimate(r))
+            if r_um == 40:
+                t, m, _ = measure([tool, "compute", p, "-o", out, "--force"], timeout=900, mie_on_disk=True)
+                row("the same, its Mie ensembles on disk from the run before", "", f"{t:.1f} s, {m:.0f} MiB",
+                    "the same tables, byte for byte")
         except (RuntimeError, subprocess.TimeoutExpired) as e:
             row(f"matting agent: silica r_eff {r_um} um", "<= 2 s" if r_um == 5 else "<= 5 s", "failed",
                 str(e)[:200])
@@ -267,7 +285,9 @@ def main():
            "the default device (OpenCL through PoCL on these CPUs), "
            f"Release build. Wall times are medians of {a.repeat} runs of the real command line (the "
            "reference and matting-agent rows: one run); memory is the process's peak resident set. "
-           "The DISORT row alternates ours and DISORT within one run.", "",
+           "The DISORT row alternates ours and DISORT within one run. Every run starts without the Mie "
+           "ensembles of the runs before (docs/mie.md, \"And on disk, across runs\"), as a new material "
+           "does, except the two rows that say they have them.", "",
            "| what | target (issues 14, 16) | measured | accuracy |", "|---|---|---|---|"]
     for what, target, result, accuracy in rows:
         doc.append(f"| {what} | {target} | {result} | {accuracy} |")
