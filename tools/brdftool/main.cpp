@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <malloc.h>
 #include <vector>
 
 namespace {
@@ -134,4 +135,13 @@ int run_brdftool(int argc, char** argv) {
     }
 }
 
-int main(int argc, char** argv) { return brdf::tool::after_leak_check(run_brdftool(argc, argv)); }
+int main(int argc, char** argv) {
+    // A run allocates, frees and allocates again buffers of 0.1-30 MB (the solves' matrices, the
+    // grids, the single-scattering tables): glibc maps each one above 128 KB afresh and the kernel
+    // zeroes its pages on first touch, 14 % of a seed run's CPU time in page faults. brdftool is a
+    // short-lived process: freed memory stays in the heap for the next buffer (only the 35 MB
+    // tables are mapped on their own), and is returned at exit. 0.375 -> 0.357 s for the seed.
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    mallopt(M_TRIM_THRESHOLD, 1 << 30);
+    return brdf::tool::after_leak_check(run_brdftool(argc, argv));
+}
