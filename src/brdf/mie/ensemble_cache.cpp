@@ -58,7 +58,9 @@ bool get(std::string_view& in, T& v) {
 }
 
 // Every field of an Ensemble (E: Ensemble or const Ensemble) but the Legendre moments, in one
-// order for writing and reading.
+// order for writing and reading. A field added to Ensemble changes its size: add it here too (and
+// to disk_magic's version).
+static_assert(sizeof(Ensemble) == 224, "Ensemble changed: update visit_fields");
 template <class E, class Visit>
 bool visit_fields(E& e, Visit&& visit) {
     return visit(e.particle_index) && visit(e.medium_index) && visit(e.wavelength_nm) && visit(e.m) &&

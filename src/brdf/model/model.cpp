@@ -561,6 +561,21 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     return out;
 }
 
+namespace {
+
+// The cosines of reflectance_angles_deg, as SolvedMaterial::albedo(theta) computes them from the
+// report's angles in radians (so that they compare equal).
+const std::vector<double>& reflectance_cosines() {
+    static const std::vector<double> mus = [] {
+        std::vector<double> out;
+        for (double deg : reflectance_angles_deg) out.push_back(std::cos(deg * std::numbers::pi / 180.0));
+        return out;
+    }();
+    return mus;
+}
+
+} // namespace
+
 void fit_into_gamut(SolvedMaterial& m) {
     // A saturated pigment (CdS yellow, vermilion) reflects a colour outside a space's gamut: a
     // channel goes negative, or a reflectance above 1. material::fit_into_gamut (docs/colour.md,
@@ -575,11 +590,12 @@ void fit_into_gamut(SolvedMaterial& m) {
     in.material = m.spec.name;
     in.space = m.spec.colorspace;
     in.value_error = m.settings.solver_tolerance; // the per-order iteration's: energy kept to it
-    const double reflectance_mus[] = {1.0, std::cos(std::numbers::pi / 6.0), 0.5, std::cos(4.0 * std::numbers::pi / 9.0)};
+    // The report's angles: the values are kept for it (WavelengthSolution::known_albedo).
+    const std::vector<double>& reflectance_mus = reflectance_cosines();
     std::vector<std::vector<double>> probes(m.samples.size());
     // Independent per sample: one thread per core; every direction of a sample from one grid.
     parallel_for(static_cast<int>(m.samples.size()), available_cpus(), [&](int k) {
-        const WavelengthSolution& s = m.samples[k];
+        WavelengthSolution& s = m.samples[k];
         std::vector<double>& p = probes[k];
         if (s.dipole) {
             for (double mi : probe_mus)
@@ -588,12 +604,18 @@ void fit_into_gamut(SolvedMaterial& m) {
         } else {
             p = s.reflection.brdf_grid(probe_mus, probe_phis);
         }
-        const std::vector<double> diffuse = s.dipole ? std::vector<double>{} : s.reflection.albedo(reflectance_mus);
-        const std::vector<double> mirror = s.dipole ? std::vector<double>{} : s.reflection.mirror(reflectance_mus);
-        for (std::size_t j = 0; j < std::size(reflectance_mus); ++j) {
-            const double mu = reflectance_mus[j];
-            p.push_back(s.dipole ? s.dipole->albedo(mu) : diffuse[j]);
-            p.push_back(s.dipole ? s.dipole->mirror(mu) : mirror[j]);
+        if (s.dipole) {
+            for (double mu : reflectance_mus) {
+                s.known_albedo.push_back(s.dipole->albedo(mu));
+                s.known_mirror.push_back(s.dipole->mirror(mu));
+            }
+        } else {
+            s.known_albedo = s.reflection.albedo(reflectance_mus);
+            s.known_mirror = s.reflection.mirror(reflectance_mus);
+        }
+        for (std::size_t j = 0; j < reflectance_mus.size(); ++j) {
+            p.push_back(s.known_albedo[j]);
+            p.push_back(s.known_mirror[j]);
         }
     });
     // Per sample: the BRDF probes, then (diffuse albedo, mirror) per reflectance cosine.
@@ -601,11 +623,11 @@ void fit_into_gamut(SolvedMaterial& m) {
     for (std::size_t k = 0; k < m.samples.size(); ++k) {
         in.weights.push_back(m.samples[k].weight);
         in.brdf.insert(in.brdf.end(), probes[k].begin(), probes[k].end());
-        for (std::size_t j = 0; j < std::size(reflectance_mus); ++j)
+        for (std::size_t j = 0; j < reflectance_mus.size(); ++j)
             in.reflectance.push_back(probes[k][brdf_probes + 2 * j] + probes[k][brdf_probes + 2 * j + 1]);
     }
-    in.probe_count = brdf_probes + 2 * std::size(reflectance_mus);
-    in.reflectance_count = std::size(reflectance_mus);
+    in.probe_count = brdf_probes + 2 * reflectance_mus.size();
+    in.reflectance_count = reflectance_mus.size();
     const material::GamutFit fit = material::fit_into_gamut(in); // checks the luminance is kept
     for (std::size_t k = 0; k < m.samples.size(); ++k) m.samples[k].weight = fit.weights[k];
     m.gamut_scale = fit.scale;
@@ -655,6 +677,7 @@ std::vector<Rgb> weighted_at(const std::vector<WavelengthSolution>& samples, std
 
 std::vector<Rgb> SolvedMaterial::albedo(std::span<const double> theta_i) const {
     return weighted_at(samples, theta_i, [](const WavelengthSolution& s, const std::vector<double>& mus) {
+        if (!s.known_albedo.empty() && mus == reflectance_cosines()) return s.known_albedo;
         if (!s.dipole) return s.reflection.albedo(mus);
         std::vector<double> v;
         for (double mu : mus) v.push_back(s.dipole->albedo(mu));
@@ -664,6 +687,7 @@ std::vector<Rgb> SolvedMaterial::albedo(std::span<const double> theta_i) const {
 
 std::vector<Rgb> SolvedMaterial::mirror(std::span<const double> theta_i) const {
     return weighted_at(samples, theta_i, [](const WavelengthSolution& s, const std::vector<double>& mus) {
+        if (!s.known_mirror.empty() && mus == reflectance_cosines()) return s.known_mirror;
         if (!s.dipole) return s.reflection.mirror(mus);
         std::vector<double> v;
         for (double mu : mus) v.push_back(s.dipole->mirror(mu));

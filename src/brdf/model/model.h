@@ -49,7 +49,15 @@ struct WavelengthSolution {
     /// this comparison model (rte/dipole.h) instead of `reflection` (which is still solved, for the
     /// report and tables).
     std::optional<rte::Dipole> dipole;
+    /// The diffuse albedo and mirror at the cosines of reflectance_angles_deg, as the gamut fit
+    /// found them (empty before it ran): the report asks for the same, which under a rough top costs
+    /// as much again (the interface's kernels at those directions, the lobe's albedo).
+    std::vector<double> known_albedo, known_mirror;
 };
+
+/// The incidence angles, in degrees, of the report's directional albedo and mirror; the gamut fit
+/// probes the same ones.
+inline constexpr double reflectance_angles_deg[] = {0.0, 30.0, 60.0, 80.0};
 
 struct StageSeconds {
     double optics = 0.0, solve = 0.0, table = 0.0, write = 0.0;

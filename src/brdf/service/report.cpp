@@ -75,7 +75,7 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
     json warnings = m.spec.warnings;
     for (const std::string& w : m.warnings) warnings.push_back(w);
     json albedo = json::array();
-    const double albedo_deg[] = {0.0, 30.0, 60.0, 80.0};
+    const auto& albedo_deg = model::reflectance_angles_deg;
     std::vector<double> albedo_theta;
     for (double deg : albedo_deg) albedo_theta.push_back(deg * std::numbers::pi / 180.0);
     const std::vector<model::Rgb> diffuse = m.albedo(albedo_theta), mirror = m.mirror(albedo_theta);
