@@ -49,8 +49,10 @@
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
 #include <brdf/core/quadrature.h>
+#include <brdf/core/threads.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -326,6 +328,22 @@ struct Workspace {
     std::vector<double> cheb;                       // Chebyshev blocks
     long long evaluations = 0;
 };
+
+// body(k, workspace) for k < count over the cores, each thread with a workspace of its own (the
+// first is `ws`): a workspace holds scratch and Gauss rules only, so what body(k) computes does not
+// depend on the thread that runs it. The evaluations are counted into `ws`. A probe's stream check
+// solves one or two stacks, whose kernels were computed on one core while the other waited.
+template <class Body>
+void for_each_on_cores(int count, Workspace& ws, const Body& body) {
+    const int threads = std::max(1, std::min(available_cpus(), count));
+    std::vector<Workspace> others(static_cast<std::size_t>(threads - 1));
+    std::atomic<int> next{0};
+    parallel_for(threads, threads, [&](int t) {
+        Workspace& own = t == 0 ? ws : others[static_cast<std::size_t>(t - 1)];
+        for (int k = next++; k < count; k = next++) body(k, own);
+    });
+    for (const Workspace& w : others) ws.evaluations += w.evaluations;
+}
 
 // ------------------------------------------------------------------------------------------------
 // Inner: K^m = int_0^pi f cos(m phi) dphi for m < orders, channels 1 or 2 (f, reverse), added to
@@ -834,17 +852,21 @@ struct LevelChoice {
 LevelChoice choose_level(const Facets& fc, const std::vector<Probe>& probes, const OutputSide& side, int orders,
                          int channels, double tolerance, const char* what, Workspace& ws) {
     int level = start_level(tolerance);
-    std::vector<std::vector<Matrix>> coarse;
-    for (const Probe& p : probes)
-        coarse.push_back(direction_result(fc, p.kind, p.theta, side, p.theta_max, Level::at(level), orders, channels, ws));
+    const int count = static_cast<int>(probes.size());
+    const auto at_level = [&](int l) { // every probe at level l, one per core
+        std::vector<std::vector<Matrix>> out(probes.size());
+        for_each_on_cores(count, ws, [&](int i, Workspace& w) {
+            const Probe& p = probes[static_cast<std::size_t>(i)];
+            out[static_cast<std::size_t>(i)] =
+                direction_result(fc, p.kind, p.theta, side, p.theta_max, Level::at(l), orders, channels, w);
+        });
+        return out;
+    };
+    std::vector<std::vector<Matrix>> coarse = at_level(level);
     for (; level < max_level; ++level) {
         double worst = 0.0;
-        std::vector<std::vector<Matrix>> fine;
-        for (std::size_t i = 0; i < probes.size(); ++i) {
-            const Probe& p = probes[i];
-            fine.push_back(direction_result(fc, p.kind, p.theta, side, p.theta_max, Level::at(level + 1), orders, channels, ws));
-            worst = std::max(worst, relative_change(fine.back(), coarse[i]));
-        }
+        std::vector<std::vector<Matrix>> fine = at_level(level + 1);
+        for (std::size_t i = 0; i < probes.size(); ++i) worst = std::max(worst, relative_change(fine[i], coarse[i]));
         if (worst <= tolerance) return {level + 1, worst};
         coarse = std::move(fine);
         if (level + 1 == max_level)
@@ -1022,16 +1044,16 @@ InterfaceKernels interface_kernels(const RoughInterface& surface, const StreamPi
     std::vector<double> q(static_cast<std::size_t>(n));
     for (int k = 0; k < n; ++k) q[k] = 2.0 * checked.streams.w[k] * checked.streams.mu[k];
 
-    for (int e = 0; e < e_count; ++e) {
+    for_each_on_cores(e_count, ws, [&](int e, Workspace& w) {
         const auto x =
             direction_result(fc, Kind::TransmitDown, std::acos(air_mu[e]), side, half_pi, Level::at(air_level.level),
-                             orders, 2, ws);
+                             orders, 2, w);
         for (int m = 0; m < orders; ++m)
             for (int k = 0; k < n; ++k) {
                 out.t_down[m](k, e) = x[0](m, k) / q[k];
                 out.t_up[m](e, k) = x[1](m, k) / q[k];
             }
-    }
+    });
 
     if (!internal_reflection) {
         out.quadrature.level = air_level.level;
@@ -1075,28 +1097,40 @@ InterfaceKernels interface_kernels(const RoughInterface& surface, const StreamPi
             graded(t_lo, t_hi, t_hi);
         }
     }
-    std::vector<Matrix> y(static_cast<std::size_t>(orders), Matrix(n, n));
-    std::vector<double> ell(static_cast<std::size_t>(n));
-    for (const OuterNode& in : incident) {
-        const double mu_in = std::cos(in.theta);
-        const auto x =
-            direction_result(fc, Kind::ReflectInside, in.theta, side, in.theta, lv.within(in.share), orders, 1, ws);
-        const int p = in.piece, f = side.first[p], np = side.piece_size(p);
-        side.basis(p, mu_in, ell.data());
-        const double wt = in.weight * 2.0 * mu_in * std::sin(in.theta);
-        for (int m = 0; m < orders; ++m) {
-            Matrix& ym = y[static_cast<std::size_t>(m)];
-            for (int i = 0; i < n; ++i) {
-                const double xi = x[0](m, i) * wt;
-                if (xi == 0.0) continue;
-                for (int k = 0; k < np; ++k) ym(i, f + k) += xi * ell[static_cast<std::size_t>(k)];
+    // The incident nodes in a fixed number of runs, each summed on its own and the runs then in
+    // order: the same sums whatever the number of cores.
+    constexpr std::size_t runs_max = 8;
+    const std::size_t runs = std::min(runs_max, incident.size());
+    std::vector<std::vector<Matrix>> y(runs, std::vector<Matrix>(static_cast<std::size_t>(orders), Matrix(n, n)));
+    for_each_on_cores(static_cast<int>(runs), ws, [&](int r, Workspace& w) {
+        std::vector<double> ell(static_cast<std::size_t>(n));
+        const std::size_t first = incident.size() * r / runs, last = incident.size() * (r + 1) / runs;
+        for (std::size_t j = first; j < last; ++j) {
+            const OuterNode& in = incident[j];
+            const double mu_in = std::cos(in.theta);
+            const auto x =
+                direction_result(fc, Kind::ReflectInside, in.theta, side, in.theta, lv.within(in.share), orders, 1, w);
+            const int p = in.piece, f = side.first[p], np = side.piece_size(p);
+            side.basis(p, mu_in, ell.data());
+            const double wt = in.weight * 2.0 * mu_in * std::sin(in.theta);
+            for (int m = 0; m < orders; ++m) {
+                Matrix& ym = y[static_cast<std::size_t>(r)][static_cast<std::size_t>(m)];
+                for (int i = 0; i < n; ++i) {
+                    const double xi = x[0](m, i) * wt;
+                    if (xi == 0.0) continue;
+                    for (int k = 0; k < np; ++k) ym(i, f + k) += xi * ell[static_cast<std::size_t>(k)];
+                }
             }
         }
-    }
-    for (int m = 0; m < orders; ++m)
+    });
+    for (std::size_t r = 1; r < runs; ++r)
+        for (int m = 0; m < orders; ++m) y[0][static_cast<std::size_t>(m)] += y[r][static_cast<std::size_t>(m)];
+    const Matrix none(n, n); // no incident node
+    for (int m = 0; m < orders; ++m) {
+        const Matrix& ym = runs > 0 ? y[0][static_cast<std::size_t>(m)] : none;
         for (int i = 0; i < n; ++i)
-            for (int k = 0; k < n; ++k)
-                out.r_inside[m](i, k) = (y[m](i, k) + y[m](k, i)) / (q[i] * q[k]);
+            for (int k = 0; k < n; ++k) out.r_inside[m](i, k) = (ym(i, k) + ym(k, i)) / (q[i] * q[k]);
+    }
 
     out.quadrature.level = std::max(air_level.level, inside_level.level);
     out.quadrature.estimated_error = std::max(air_level.error, inside_level.error);
