@@ -605,6 +605,8 @@ void fit_into_gamut(SolvedMaterial& m) {
             p = s.reflection.brdf_grid(probe_mus, probe_phis);
         }
         if (s.dipole) {
+            s.known_albedo.clear();
+            s.known_mirror.clear();
             for (double mu : reflectance_mus) {
                 s.known_albedo.push_back(s.dipole->albedo(mu));
                 s.known_mirror.push_back(s.dipole->mirror(mu));
