@@ -7,18 +7,21 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/quadrature.h>
+#include <brdf/core/threads.h>
 #include <brdf/rte/adding.h>
 #include <brdf/rte/rough_interface.h>
 #include <test_support.h>
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <fstream>
 #include <functional>
 #include <numbers>
 #include <random>
+#include <sched.h>
 #include <sstream>
 
 namespace brdf::test {
@@ -314,6 +317,41 @@ TEST(RoughInterface, AirReflectionOrdersSumToTheClosedForm) {
                     EXPECT_NEAR(sum / pi, f, 1e-6 * std::max(1.0, f)) << alpha << " " << mu[a] << " " << mu[b] << " " << phi;
                 }
     }
+}
+
+// The kernels are computed on every core (for_each_on_cores: directions one per core, the internal
+// reflection's incident nodes in a fixed number of runs summed in order): on one CPU they are the
+// same, bit for bit, so tables do not depend on the machine's core count.
+TEST(RoughInterface, KernelsDoNotDependOnTheCoreCount) {
+    if (available_cpus() < 2) GTEST_SKIP() << "needs at least 2 CPUs to compare with 1";
+    const RoughInterface s = ggx(0.1, Masking::HeightCorrelated);
+    const rte::StreamPieces sp = pieces_16(s);
+    const std::vector<double> air{0.95, 0.7, 0.3, 0.05};
+    const auto all = rte::interface_kernels(s, sp, air, 12, 1e-7);
+    cpu_set_t mask, one;
+    ASSERT_EQ(sched_getaffinity(0, sizeof mask, &mask), 0);
+    CPU_ZERO(&one);
+    for (int c = 0; c < CPU_SETSIZE; ++c)
+        if (CPU_ISSET(c, &mask)) {
+            CPU_SET(c, &one);
+            break;
+        }
+    ASSERT_EQ(sched_setaffinity(0, sizeof one, &one), 0);
+    const int cpus = available_cpus();
+    const auto single = rte::interface_kernels(s, sp, air, 12, 1e-7);
+    ASSERT_EQ(sched_setaffinity(0, sizeof mask, &mask), 0);
+    ASSERT_EQ(cpus, 1);
+    const auto same = [](const std::vector<Matrix>& a, const std::vector<Matrix>& b) {
+        if (a.size() != b.size()) return false;
+        for (std::size_t m = 0; m < a.size(); ++m)
+            if (!std::ranges::equal(a[m].data(), b[m].data())) return false;
+        return true;
+    };
+    EXPECT_TRUE(same(all.t_down, single.t_down));
+    EXPECT_TRUE(same(all.t_up, single.t_up));
+    EXPECT_TRUE(same(all.r_inside, single.r_inside));
+    EXPECT_EQ(all.quadrature.nodes, single.quadrature.nodes);
+    EXPECT_GT(all.quadrature.nodes, 0);
 }
 
 TEST(RoughInterface, WideTransmissionOrdersSumToTheClosedForm) {
