@@ -6,6 +6,7 @@
 #include <exception>
 #include <string>
 #include <string_view>
+#include <tuple>
 
 #ifndef BRDF_MIE_BUILD_ID
 #error "BRDF_MIE_BUILD_ID is set by src/brdf/mie/CMakeLists.txt"
@@ -16,28 +17,21 @@ namespace {
 
 constexpr std::string_view disk_magic = "BRDFMIE1";
 
-// The request as text, every number exact (hexadecimal floating point), with the build.
-std::string disk_key(std::complex<double> particle_index, double medium_index, double wavelength_nm,
-                     const SizeDistribution& sizes, const EnsembleOptions& options) {
-    std::string key = "brdf-mie-ensemble 1\nbuild " BRDF_MIE_BUILD_ID "\n";
-    const auto add = [&key](const char* name, double v) {
-        char text[64];
-        std::snprintf(text, sizeof text, "%s %a\n", name, v);
-        key += text;
-    };
-    add("n_particle_re", particle_index.real());
-    add("n_particle_im", particle_index.imag());
-    add("n_medium", medium_index);
-    add("wavelength_nm", wavelength_nm);
-    add("distribution", static_cast<int>(sizes.kind()));
-    add("parameter1", sizes.parameter1());
-    add("parameter2", sizes.parameter2());
-    add("tolerance", options.tolerance);
-    add("legendre_tolerance", options.legendre.tolerance);
-    add("legendre_max_terms", options.legendre.max_terms);
-    add("refinement", options.refinement);
-    add("max_nodes", options.max_nodes);
-    add("rule", static_cast<int>(options.rule));
+// The request (the in-memory cache's key: every input of mie::ensemble) as text, each number exact
+// (hexadecimal floating point), with the build: one list of the inputs for both caches.
+template <class Key>
+std::string disk_key(const Key& request) {
+    std::string key = "brdf-mie-ensemble 2\nbuild " BRDF_MIE_BUILD_ID "\n";
+    std::apply(
+        [&key](const auto&... field) {
+            const auto add = [&key](double v) {
+                char text[40];
+                std::snprintf(text, sizeof text, "%a\n", v);
+                key += text;
+            };
+            (add(static_cast<double>(field)), ...);
+        },
+        request);
     return key;
 }
 
@@ -136,8 +130,7 @@ std::shared_ptr<const Ensemble> EnsembleCache::get(std::complex<double> particle
     }
     std::shared_ptr<const Ensemble> result;
     try {
-        const std::string stored_key =
-            m_disk ? disk_key(particle_index, medium_index, wavelength_nm, sizes, options) : std::string();
+        const std::string stored_key = m_disk ? disk_key(key) : std::string();
         std::optional<Ensemble> stored;
         if (m_disk)
             if (const std::optional<std::string> bytes = m_disk->load(stored_key)) stored = from_bytes(*bytes);
