@@ -4,6 +4,7 @@
 // kernels (cooperative: kernels/ambartsumian.cl, serial: kernels/ambartsumian_serial.cl).
 
 #include "rte_test_support.h"
+#include <test_support.h>
 
 #include <brdf/cl/context.h>
 #include <brdf/core/error.h>
@@ -260,24 +261,27 @@ TEST_P(ClSolver, RefusesTooManyStreams) {
 // The automatic choice: BRDF_OPENCL_KERNEL overrides, otherwise the device type decides.
 TEST(ClSolverKernelChoice, EnvironmentOverridesDeviceType) {
     if (!brdf::cl::available()) GTEST_SKIP() << "no OpenCL device with fp64";
-    const char* old = std::getenv("BRDF_OPENCL_KERNEL");
-    const std::string saved = old ? old : "";
     EXPECT_EQ(resolve_solver_kernel(ClSolverKernel::Serial), ClSolverKernel::Serial);
     EXPECT_EQ(resolve_solver_kernel(ClSolverKernel::Cooperative), ClSolverKernel::Cooperative);
-    ::setenv("BRDF_OPENCL_KERNEL", "serial", 1);
-    EXPECT_EQ(resolve_solver_kernel(), ClSolverKernel::Serial);
-    ::setenv("BRDF_OPENCL_KERNEL", "cooperative", 1);
-    EXPECT_EQ(resolve_solver_kernel(), ClSolverKernel::Cooperative);
-    ::setenv("BRDF_OPENCL_KERNEL", "gpu", 1);
-    EXPECT_THROW(resolve_solver_kernel(), InputError);
-    ::unsetenv("BRDF_OPENCL_KERNEL");
+    {
+        const brdf::test::ScopedEnv serial("BRDF_OPENCL_KERNEL", "serial");
+        EXPECT_EQ(resolve_solver_kernel(), ClSolverKernel::Serial);
+    }
+    {
+        const brdf::test::ScopedEnv cooperative("BRDF_OPENCL_KERNEL", "cooperative");
+        EXPECT_EQ(resolve_solver_kernel(), ClSolverKernel::Cooperative);
+    }
+    {
+        const brdf::test::ScopedEnv gpu("BRDF_OPENCL_KERNEL", "gpu");
+        EXPECT_THROW(resolve_solver_kernel(), InputError);
+    }
+    const brdf::test::ScopedEnv unset("BRDF_OPENCL_KERNEL", nullptr);
     const ClSolverKernel automatic = resolve_solver_kernel();
     EXPECT_NE(automatic, ClSolverKernel::Automatic);
     const std::string info = brdf::cl::Context::shared()->info().name;
     cl_device_type type = 0;
     brdf::cl::Context::shared()->device().getInfo(CL_DEVICE_TYPE, &type);
     EXPECT_EQ(automatic, (type & CL_DEVICE_TYPE_CPU) ? ClSolverKernel::Serial : ClSolverKernel::Cooperative) << info;
-    if (old) ::setenv("BRDF_OPENCL_KERNEL", saved.c_str(), 1);
 }
 
 } // namespace
