@@ -45,6 +45,15 @@ bool analytic(const material::MaterialSpec& spec) {
 
 bool coloured(const std::array<double, 3>& a) { return a[0] != a[1] || a[1] != a[2]; }
 
+// Whether each wavelength's direct single scattering is apart from its orders (Reflection::
+// order_grid removes it there; table fills and SolvedMaterial::brdf add it from the optics): a
+// spectral half-space under no or a smooth top, evaluated by the exact model. Under a rough top the
+// orders carry it, and in a film so do the paths off the substrate and the inner interfaces.
+bool single_scattering_apart(const material::MaterialSpec& spec) {
+    return !analytic(spec) && spec.model == material::Model::Exact && spec.surface.kind != material::Surface::Rough &&
+           spec.layers.size() == 1 && spec.layers.front().semi_infinite();
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -183,7 +192,7 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
 } // namespace
 
 SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, const std::vector<Rgb>& weights,
-                                    double tolerance) {
+                                    double tolerance, bool single_exact) {
     const std::size_t n = optics.size();
     SpectralSelection out;
     if (n == 0) return out;
@@ -193,7 +202,13 @@ SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, 
     // layer's transmission exp(-tau) how much of what lies below shows through. Each must be
     // reproduced by the interpolation to within a third of the tolerance (relative for the phase
     // function values); measured against solving every wavelength by the PipelineSpectral test.
+    // Where the single scattering is exact per wavelength (`single_exact`), the phase function
+    // enters only through the multiple scattering, which averages it over angles: its first
+    // moments chi_l = beta_l / (2 l + 1) stand for it. Its values at given angles carry Mie's
+    // ripple in wavelength (0.1 % from one 10 nm step to the next for the seed's rutile at 30
+    // degrees), which the colour integral of the solved BRDF would have to follow otherwise.
     constexpr int angles = 7;
+    constexpr int moments = 4;
     struct Feature {
         double value;
         bool relative;
@@ -205,6 +220,12 @@ SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, 
             f.push_back({std::sqrt(std::max(0.0, (1.0 - om) / (1.0 - om * g))), false});
             f.push_back({l.index, false});
             if (l.finite()) f.push_back({std::exp(-l.optical_depth), false});
+            if (single_exact) {
+                const std::vector<double>& beta = l.medium.beta;
+                for (int m = 1; m <= moments; ++m)
+                    f.push_back({m < static_cast<int>(beta.size()) ? beta[m] / (2 * m + 1) : 0.0, false});
+                continue;
+            }
             for (int a = 0; a < angles; ++a)
                 f.push_back({om * rte::phase_value(l.medium.beta, std::cos(std::numbers::pi * a / (angles - 1))), true});
         }
@@ -421,10 +442,23 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
         parallel_for(static_cast<int>(wavelengths.size()), available_cpus(),
                      [&](int k) { optics[k] = spectral_optics(spec, wavelengths[k], st.mie_tolerance); });
         std::vector<Rgb> all(rgb.begin(), rgb.end());
+        // Where the single scattering is apart, a skipped wavelength keeps its own exactly and
+        // only its multiply scattered light is interpolated (SingleScatteringSample).
+        const bool apart = single_scattering_apart(spec);
         const SpectralSelection pick =
-            select_wavelengths(optics, all, st.select_wavelengths ? st.tolerance : 0.0);
+            select_wavelengths(optics, all, st.select_wavelengths ? st.tolerance : 0.0, apart);
+        std::vector<char> solved(optics.size(), 0);
+        for (std::size_t k : pick.solved) solved[k] = 1;
+        for (std::size_t k = 0; apart && k < optics.size(); ++k)
+            if (!solved[k]) {
+                out.single_only.push_back(std::move(optics[k]));
+                out.single_only_weights.push_back(all[k]);
+            }
         std::vector<SpectralOptics> kept;
-        for (std::size_t k : pick.solved) kept.push_back(std::move(optics[k]));
+        for (std::size_t j = 0; j < pick.solved.size(); ++j) {
+            kept.push_back(std::move(optics[pick.solved[j]]));
+            out.single_weights.push_back(apart ? all[pick.solved[j]] : pick.weights[j]);
+        }
         optics = std::move(kept);
         weights = pick.weights;
         out.wavelengths_interpolated = all.size() - pick.solved.size();
@@ -444,8 +478,10 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
                 }
             optics = std::move(split);
             weights = std::move(split_weights);
+            out.single_weights = weights;
         }
     }
+    if (out.single_weights.empty()) out.single_weights = weights;
     // The spec's limit on the phase function's Legendre series (material::SpecLimits): the order
     // matrices and the table's Fourier sums grow with it. Known only now, from the optics.
     for (const SpectralOptics& o : optics)
@@ -548,14 +584,21 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     std::vector<rte::Reflection> reflections = solve_stacks(unsolved, rs, device, &out.device);
     for (std::size_t k = 0, next = 0; k < stacks.size(); ++k) {
         rte::Reflection r = kept[k] ? std::move(*kept[k]) : std::move(reflections[next++]);
-        out.samples.push_back(WavelengthSolution{optics[k].wavelength_nm, weights[k], optics[k], std::move(r),
-                                                 std::nullopt});
+        out.samples.push_back(WavelengthSolution{optics[k].wavelength_nm, weights[k], mo.single_weights[k],
+                                                 optics[k], std::move(r), std::nullopt, {}, {}});
         if (spec.model == material::Model::Dipole) {
             const LayerOptics& o = optics[k].top();
             const double n = out.samples.back().reflection.setup().layers[0].index;
             out.samples.back().dipole.emplace(o.medium.omega, o.g, n, o.medium.beta);
         }
     }
+    // The skipped wavelengths' single scattering, at the chosen streams (TMS's delta-M fraction).
+    out.single_only.resize(mo.single_only.size());
+    parallel_for(static_cast<int>(mo.single_only.size()), available_cpus(), [&](int k) {
+        const SpectralOptics& o = mo.single_only[k];
+        out.single_only[k] = SingleScatteringSample{o.wavelength_nm, mo.single_only_weights[k],
+                                                    rte::setup_reflection(make_stack(o, spec.surface), rs)};
+    });
     out.seconds.solve = seconds_since(t0);
     if (!analytic(spec)) fit_into_gamut(out);
     return out;
@@ -628,10 +671,39 @@ void fit_into_gamut(SolvedMaterial& m) {
         for (std::size_t j = 0; j < reflectance_mus.size(); ++j)
             in.reflectance.push_back(probes[k][brdf_probes + 2 * j] + probes[k][brdf_probes + 2 * j + 1]);
     }
+    // The exact single scattering of every wavelength (single_only) as more entries: each solved
+    // sample's own with the weight single_weight - weight, then each skipped wavelength's, their
+    // reflectances 0 (the albedo and mirror follow `weight`). The fit's map is linear, so the
+    // difference's fitted weight is the difference of the fitted ones.
+    if (!m.single_only.empty()) {
+        const auto add_single = [&](const rte::StackSetup& setup, const Rgb& weight) {
+            in.weights.push_back(weight);
+            for (double mi : probe_mus)
+                for (double mo : probe_mus)
+                    for (double phi : probe_phis)
+                        in.brdf.push_back(rte::single_scattering(setup, mo, mi, phi) * std::numbers::inv_pi);
+            in.brdf.insert(in.brdf.end(), 2 * reflectance_mus.size(), 0.0); // (albedo, mirror) pairs
+            in.reflectance.insert(in.reflectance.end(), reflectance_mus.size(), 0.0);
+        };
+        for (const WavelengthSolution& s : m.samples) {
+            const Rgb& a = s.single_weight;
+            const Rgb& b = s.weight;
+            add_single(s.reflection.setup(), Rgb{a[0] - b[0], a[1] - b[1], a[2] - b[2]});
+        }
+        for (const SingleScatteringSample& u : m.single_only) add_single(u.setup, u.weight);
+    }
     in.probe_count = brdf_probes + 2 * reflectance_mus.size();
     in.reflectance_count = reflectance_mus.size();
     const material::GamutFit fit = material::fit_into_gamut(in); // checks the luminance is kept
-    for (std::size_t k = 0; k < m.samples.size(); ++k) m.samples[k].weight = fit.weights[k];
+    const std::size_t n = m.samples.size();
+    for (std::size_t k = 0; k < n; ++k) m.samples[k].weight = fit.weights[k];
+    if (m.single_only.empty()) {
+        for (WavelengthSolution& s : m.samples) s.single_weight = s.weight;
+    } else {
+        for (std::size_t k = 0; k < n; ++k)
+            for (int c = 0; c < 3; ++c) m.samples[k].single_weight[c] = fit.weights[k][c] + fit.weights[n + k][c];
+        for (std::size_t u = 0; u < m.single_only.size(); ++u) m.single_only[u].weight = fit.weights[2 * n + u];
+    }
     m.gamut_scale = fit.scale;
     m.gamut_clipped = fit.clipped;
     if (!fit.warning.empty()) {
@@ -645,9 +717,26 @@ Rgb SolvedMaterial::brdf(double theta_i, double theta_o, double phi) const {
     if (mi <= 0.0 || mo <= 0.0) return {0.0, 0.0, 0.0};
     // No output holds a negative value (docs/colour.md): what the gamut fit leaves (its clipped
     // case, directions between its probes) and a series' rounding below 0 are clamped.
-    return material::clip_negative(weighted(samples, [&](const WavelengthSolution& s) {
+    Rgb sum = weighted(samples, [&](const WavelengthSolution& s) {
         return s.dipole ? s.dipole->brdf(mi, mo, phi) : s.reflection.brdf(mi, mo, phi);
-    }));
+    });
+    const Rgb single = single_scattering_correction(mi, mo, phi);
+    for (int c = 0; c < 3; ++c) sum[c] += single[c];
+    return material::clip_negative(sum);
+}
+
+Rgb SolvedMaterial::single_scattering_correction(double mu_i, double mu_o, double phi) const {
+    Rgb out{0.0, 0.0, 0.0};
+    if (single_only.empty()) return out;
+    const auto add = [&](const rte::StackSetup& setup, const Rgb& weight) {
+        const double v = rte::single_scattering(setup, mu_o, mu_i, phi) * std::numbers::inv_pi;
+        for (int c = 0; c < 3; ++c) out[c] += weight[c] * v;
+    };
+    for (const WavelengthSolution& s : samples)
+        add(s.reflection.setup(), Rgb{s.single_weight[0] - s.weight[0], s.single_weight[1] - s.weight[1],
+                                      s.single_weight[2] - s.weight[2]});
+    for (const SingleScatteringSample& u : single_only) add(u.setup, u.weight);
+    return out;
 }
 
 Rgb SolvedMaterial::albedo(double theta_i) const {

@@ -43,6 +43,10 @@ NumericalSettings settings_for(double tolerance);
 struct WavelengthSolution {
     double wavelength_nm = 0.0; ///< 0 for a channel of an analytic medium
     Rgb weight{};               ///< contribution to r, g, b
+    /// The colour weight of this wavelength's direct single scattering: `weight`, but where the
+    /// spectrum's single scattering is exact per wavelength (SolvedMaterial::single_only) its own,
+    /// and `weight` (which also carries skipped neighbours' share) weights the rest of the BRDF.
+    Rgb single_weight{};
     SpectralOptics optics;
     rte::Reflection reflection;
     /// Set when the spec asks for "model": "dipole": SolvedMaterial::brdf/albedo/mirror then evaluate
@@ -63,10 +67,23 @@ struct StageSeconds {
     double optics = 0.0, solve = 0.0, table = 0.0, write = 0.0;
 };
 
+/// A wavelength of the spectrum that is not solved (select_wavelengths) but whose direct single
+/// scattering is added exactly: its multiply scattered light, smooth in wavelength, is interpolated
+/// (its colour weight folded onto the solved samples' `weight`), while its single scattering
+/// follows its own phase function, which Mie's ripple makes anything but smooth in wavelength.
+struct SingleScatteringSample {
+    double wavelength_nm = 0.0;
+    Rgb weight{};
+    rte::StackSetup setup; ///< set up at the material's streams (the delta-M fraction of TMS)
+};
+
 struct SolvedMaterial {
     material::MaterialSpec spec;
     NumericalSettings settings;
     std::vector<WavelengthSolution> samples;
+    /// The wavelengths whose single scattering alone is evaluated (empty unless select_wavelengths
+    /// interpolated only the multiply scattered light: a half-space under no or a smooth top).
+    std::vector<SingleScatteringSample> single_only;
     std::string device; ///< "opencl: DEVICE NAME" or "cpu"
     std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
     /// Relative BRDF difference between the chosen stream count and the last one checked against
@@ -95,6 +112,10 @@ struct SolvedMaterial {
     Rgb mirror(double theta_i) const;
     /// mirror() at each angle: every sample solved once for all of them, one sample per core.
     std::vector<Rgb> mirror(std::span<const double> theta_i) const;
+    /// What the exact single scattering of every wavelength adds to the samples' `weight`ed BRDFs
+    /// (1/sr, cosines and azimuth): sum_k (single_weight_k - weight_k) SS_k + sum_u weight_u SS_u
+    /// over single_only; 0 unless single_only is in use.
+    Rgb single_scattering_correction(double mu_i, double mu_o, double phi) const;
 };
 
 /// Which wavelengths of a spectrum to solve: where the optics vary smoothly the BRDF is
@@ -104,8 +125,12 @@ struct SpectralSelection {
     std::vector<std::size_t> solved; ///< indices into the spectrum, ascending, first and last included
     std::vector<Rgb> weights;        ///< colour weight of each solved wavelength
 };
+/// `single_exact`: the single scattering is added per wavelength from its own optics
+/// (SolvedMaterial::single_only), so only what the multiply scattered light depends on must
+/// interpolate: the similarity parameter, the index, the optical depth and the phase function's
+/// first moments; otherwise the phase function's values at a spread of angles too.
 SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, const std::vector<Rgb>& weights,
-                                     double tolerance);
+                                     double tolerance, bool single_exact = false);
 
 /// The Fourier orders a reflection needs: one past the last order m whose term 2 |R^m| reaches
 /// `threshold` of the azimuthal mean R^0 at some pair of the probe directions (the stream check's
@@ -121,6 +146,11 @@ struct MaterialOptics {
     std::vector<SpectralOptics> optics;
     std::vector<Rgb> weights;
     std::size_t wavelengths_interpolated = 0;
+    /// Per entry of `optics`, the weight of its direct single scattering (WavelengthSolution::
+    /// single_weight), and the skipped wavelengths whose single scattering is still exact.
+    std::vector<Rgb> single_weights;
+    std::vector<SpectralOptics> single_only;
+    std::vector<Rgb> single_only_weights;
 };
 MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& settings);
 

@@ -409,17 +409,26 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
     keep_per_sample();
 }
 
-// The fill inputs of the samples `which` with colour weights `weights` (one per entry of `which`).
+// One single-scattering source: a set-up stack and the colour weight of its direct single scattering.
+struct SingleSource {
+    const rte::StackSetup* setup = nullptr;
+    Rgb weight{};
+};
+
+// The fill inputs of the samples `which` with colour weights `weights` (one per entry of `which`)
+// and the single scattering of `singles`.
 FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::size_t>& which,
-                         const std::vector<Rgb>& weights, int zenith_grid = 0) {
+                         const std::vector<Rgb>& weights, const std::vector<SingleSource>& singles,
+                         int zenith_grid = 0) {
     FillInputs in;
     const int e = zenith_grid > 0 ? std::min(zenith_grid, material.settings.table_grid) : material.settings.table_grid;
     in.grid = e;
     for (std::size_t k : which) in.orders = std::max(in.orders, material.samples[k].reflection.orders());
     const int mp = padded_orders(in.orders);
     // A grey material (every colour weight the same in all channels) is filled in one channel.
-    const bool grey =
-        std::all_of(weights.begin(), weights.end(), [](const Rgb& w) { return w[0] == w[1] && w[1] == w[2]; });
+    const auto is_grey = [](const Rgb& w) { return w[0] == w[1] && w[1] == w[2]; };
+    const bool grey = std::all_of(weights.begin(), weights.end(), is_grey) &&
+                      std::all_of(singles.begin(), singles.end(), [&](const SingleSource& t) { return is_grey(t.weight); });
     in.channels = grey ? 1 : 3;
     const int channels = in.channels;
     in.fourier.assign(static_cast<std::size_t>(mp) * channels * e * e, 0.0);
@@ -460,11 +469,9 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
     // indices). They stay 0 and are not summed: half the table under a binder of 1.5, where each
     // point sums thousands of Legendre terms for big spheres.
     double lowest_index = std::numeric_limits<double>::infinity();
-    for (std::size_t k : which) {
-        const rte::Reflection& r = material.samples[k].reflection;
-        for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer)
-            lowest_index = std::min(lowest_index, r.scattering_layer(layer).index);
-    }
+    for (const SingleSource& t : singles)
+        for (int layer = 0; layer < static_cast<int>(t.setup->layers.size()); ++layer)
+            lowest_index = std::min(lowest_index, rte::scattering_layer(*t.setup, layer).index);
     int first_phase_point = 0; // the cubic's taps reach one point below the interval; one more for rounding
     if (lowest_index > 1.0 && std::isfinite(lowest_index)) {
         const double u_min = (std::sqrt(lowest_index * lowest_index - 1.0) - 1.0) / lowest_index;
@@ -475,14 +482,14 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
         const double u = 2.0 * (p - 1) / phase_table_intervals - 1.0;
         cos_theta.push_back(-u * std::sqrt(2.0 - u * u));
     }
-    std::vector<std::vector<SingleScatteringTerm>> per_sample(which.size());
-    parallel_for(static_cast<int>(which.size()), available_cpus(), [&](int j) {
-        const rte::Reflection& r = material.samples[which[j]].reflection;
-        if (r.setup().stack.top == rte::Top::Rough) return;
+    std::vector<std::vector<SingleScatteringTerm>> per_sample(singles.size());
+    parallel_for(static_cast<int>(singles.size()), available_cpus(), [&](int j) {
+        const rte::StackSetup& setup = *singles[j].setup;
+        if (setup.stack.top == rte::Top::Rough) return;
         const double inv_sqrt_pi = 1.0 / std::sqrt(std::numbers::pi);
-        for (int layer = 0; layer < static_cast<int>(r.setup().layers.size()); ++layer) {
-            const rte::Reflection::ScatteringLayer l = r.scattering_layer(layer);
-            SingleScatteringTerm t{l.index, l.tau, layer == 0, weights[j], {}, {}};
+        for (int layer = 0; layer < static_cast<int>(setup.layers.size()); ++layer) {
+            const rte::ScatteringLayer l = rte::scattering_layer(setup, layer);
+            SingleScatteringTerm t{l.index, l.tau, layer == 0, singles[j].weight, {}, {}};
             t.phase.assign(phase_table_points, 0.0);
             // all points at once: thousands of degrees for big spheres
             rte::phase_values(*l.beta, cos_theta, std::span<double>(t.phase).subspan(first_phase_point));
@@ -490,7 +497,8 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
             t.transmission.resize(fresnel_table_points);
             for (int p = 1; p + 1 < fresnel_table_points; ++p) // mu_p = (p - 1) / intervals
                 t.transmission[p] =
-                    r.path_factor(layer, static_cast<double>(p - 1) / fresnel_table_intervals) * inv_sqrt_pi;
+                    rte::path_factor(setup, layer, static_cast<double>(p - 1) / fresnel_table_intervals) *
+                    inv_sqrt_pi;
             extrapolate_ghosts(t.transmission);
             per_sample[j].push_back(std::move(t));
         }
@@ -508,11 +516,14 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
 FillInputs prepare_fill(const SolvedMaterial& material, int zenith_grid) {
     std::vector<std::size_t> all(material.samples.size());
     std::vector<Rgb> weights;
+    std::vector<SingleSource> singles;
     for (std::size_t k = 0; k < all.size(); ++k) {
         all[k] = k;
         weights.push_back(material.samples[k].weight);
+        singles.push_back({&material.samples[k].reflection.setup(), material.samples[k].single_weight});
     }
-    return assemble_fill(material, all, weights, zenith_grid);
+    for (const SingleScatteringSample& u : material.single_only) singles.push_back({&u.setup, u.weight});
+    return assemble_fill(material, all, weights, singles, zenith_grid);
 }
 
 void for_each_spectral_fill(const SolvedMaterial& material, const std::function<void(const SpectralFill&)>& fill) {
@@ -520,14 +531,16 @@ void for_each_spectral_fill(const SolvedMaterial& material, const std::function<
         SpectralFill group;
         std::vector<std::size_t> which;
         std::vector<Rgb> weights;
+        std::vector<SingleSource> singles;
         for (int c = 0; c < 3 && first + c < material.samples.size(); ++c) {
             which.push_back(first + c);
             Rgb one_hot{0.0, 0.0, 0.0};
             one_hot[c] = 1.0;
             weights.push_back(one_hot);
+            singles.push_back({&material.samples[first + c].reflection.setup(), one_hot});
             group.sample[c] = static_cast<int>(first + c);
         }
-        group.inputs = assemble_fill(material, which, weights);
+        group.inputs = assemble_fill(material, which, weights, singles);
         fill(group);
     }
 }

@@ -19,6 +19,12 @@ constexpr double grazing_limit = 1e-6;
 
 double clamp_mu(double mu) { return std::clamp(mu, grazing_limit, 1.0); }
 
+// Cosine in layer k of a ray with cosine mu_air in air.
+double inside_layer(const StackSetup& setup, int k, double mu_air) {
+    const double n = setup.layers[k].index;
+    return std::sqrt(std::max(0.0, 1.0 - (1.0 - mu_air * mu_air) / (n * n)));
+}
+
 // Pieces with fewer nodes than this use Fresnel at the nodes instead of product integration.
 constexpr std::size_t min_product_nodes = 8;
 
@@ -251,10 +257,7 @@ double Reflection::surface_lobe(double mu_i, double mu_o, double phi) const {
     return m_rough->f_reflect_air(clamp_mu(mu_i), clamp_mu(mu_o), phi);
 }
 
-double Reflection::inside(int k, double mu_air) const {
-    const double n = m_setup.layers[k].index;
-    return std::sqrt(std::max(0.0, 1.0 - (1.0 - mu_air * mu_air) / (n * n)));
-}
+double Reflection::inside(int k, double mu_air) const { return inside_layer(m_setup, k, mu_air); }
 
 Reflection::NystromOrders::NystromOrders(int orders)
     : once(static_cast<std::size_t>(orders)), pencil(static_cast<std::size_t>(orders)),
@@ -427,20 +430,20 @@ Reflector Reflection::external(int m, std::span<const double> mu_air, bool with_
     throw InternalError("reflection: a rough top's orders come from order_grid");
 }
 
-double Reflection::path_factor(int k, double mu_air) const {
+double path_factor(const StackSetup& setup, int k, double mu_air) {
     const double mu = clamp_mu(mu_air);
     double f = 1.0;
-    if (m_setup.stack.top != Top::None) f *= 1.0 - fresnel(mu, 1.0, m_setup.layers.front().index);
+    if (setup.stack.top != Top::None) f *= 1.0 - fresnel(mu, 1.0, setup.layers.front().index);
     for (int j = 0; j < k; ++j) {
-        const LayerSetup& a = m_setup.layers[j];
-        const double u = inside(j, mu);
-        f *= std::exp(-a.tau / u) * (1.0 - fresnel(u, a.index, m_setup.layers[j + 1].index));
+        const LayerSetup& a = setup.layers[j];
+        const double u = inside_layer(setup, j, mu);
+        f *= std::exp(-a.tau / u) * (1.0 - fresnel(u, a.index, setup.layers[j + 1].index));
     }
-    return f / m_setup.layers[k].index;
+    return f / setup.layers[k].index;
 }
 
-Reflection::ScatteringLayer Reflection::scattering_layer(int k) const {
-    const LayerSetup& ls = m_setup.layers[k];
+ScatteringLayer scattering_layer(const StackSetup& setup, int k) {
+    const LayerSetup& ls = setup.layers[k];
     // Nakajima and Tanaka 1988 (eq. 15; DISORT's TMS, eq. 68 of its report): delta-M counts light
     // scattered into the truncated forward peak as unscattered, so each path that leaves the peak
     // once carries the geometric series of peak events, 1 / (1 - f omega); exactly omega when
@@ -449,18 +452,18 @@ Reflection::ScatteringLayer Reflection::scattering_layer(int k) const {
     return ScatteringLayer{&ls.layer.medium.beta, om / (1.0 - f * om), ls.tau, ls.index};
 }
 
-double Reflection::single_scattering(double mu_o, double mu_i, double phi) const {
-    if (m_setup.stack.top == Top::Rough) return 0.0;
+double single_scattering(const StackSetup& setup, double mu_o, double mu_i, double phi) {
+    if (setup.stack.top == Top::Rough) return 0.0;
     mu_o = clamp_mu(mu_o);
     mu_i = clamp_mu(mu_i);
     double sum = 0.0;
-    for (int k = 0; k < static_cast<int>(m_setup.layers.size()); ++k) {
-        const ScatteringLayer l = scattering_layer(k);
-        const double u_o = inside(k, mu_o), u_i = inside(k, mu_i);
+    for (int k = 0; k < static_cast<int>(setup.layers.size()); ++k) {
+        const ScatteringLayer l = scattering_layer(setup, k);
+        const double u_o = inside_layer(setup, k, mu_o), u_i = inside_layer(setup, k, mu_i);
         const double s_o = std::sqrt(std::max(0.0, 1.0 - u_o * u_o)), s_i = std::sqrt(std::max(0.0, 1.0 - u_i * u_i));
         const double cos_scatter = std::clamp(-u_o * u_i - s_o * s_i * std::cos(phi), -1.0, 1.0);
-        sum += path_factor(k, mu_o) * path_factor(k, mu_i) * 0.25 * l.albedo * phase_value(*l.beta, cos_scatter) /
-               (u_o + u_i) * slab_factor(l.tau, u_o, u_i);
+        sum += path_factor(setup, k, mu_o) * path_factor(setup, k, mu_i) * 0.25 * l.albedo *
+               phase_value(*l.beta, cos_scatter) / (u_o + u_i) * slab_factor(l.tau, u_o, u_i);
     }
     return sum;
 }

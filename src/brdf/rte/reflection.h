@@ -69,6 +69,25 @@ struct OrderGrid {
     int interpolated = 0;
 };
 
+/// What a per-direction single-scattering evaluation needs of layer k of a stack (table fills
+/// tabulate it).
+struct ScatteringLayer {
+    const std::vector<double>* beta = nullptr; ///< full phase function
+    double albedo = 0.0;                       ///< omega / (1 - f omega) (TMS)
+    double tau = 0.0;                          ///< delta-M scaled thickness (infinite: half-space)
+    double index = 1.0;
+};
+/// Layer k of a set-up stack for its single scattering.
+ScatteringLayer scattering_layer(const StackSetup& setup, int k);
+/// A_k(mu) / n_k: the factor of layer k's single scattering for an air cosine, one per direction
+/// (Fresnel transmissions of every interface above it and the attenuation by the layers above).
+double path_factor(const StackSetup& setup, int k, double mu_air);
+/// The exact single scattering of the full phase functions on the direct paths of every layer of
+/// a set-up stack, as R (BRDF = R / pi), with interface and attenuation factors; 0 under a rough
+/// top (whose orders carry it). It needs the stack's set-up only, not its solution: a wavelength
+/// whose multiple scattering is interpolated from its neighbours' gets its own exactly.
+double single_scattering(const StackSetup& setup, double mu_o, double mu_i, double phi);
+
 class Reflection {
 public:
     /// `half_space`: the solutions of half_space_problems(setup), one per order (none for a film).
@@ -121,21 +140,13 @@ public:
     /// independent: `threads` > 1 computes them on that many threads (a material of one or two
     /// samples would leave cores idle otherwise).
     OrderGrid order_grid(std::span<const double> mu_air, int threads = 1) const;
-    /// The exact single scattering of the full phase functions on the direct paths of every layer,
-    /// as R (BRDF = R / pi), with interface and attenuation factors.
-    double single_scattering(double mu_o, double mu_i, double phi) const;
-
-    /// What a per-direction single-scattering evaluation needs of layer k (table fills tabulate it).
-    struct ScatteringLayer {
-        const std::vector<double>* beta = nullptr; ///< full phase function
-        double albedo = 0.0;                       ///< omega / (1 - f omega) (TMS)
-        double tau = 0.0;                          ///< delta-M scaled thickness (infinite: half-space)
-        double index = 1.0;
-    };
-    ScatteringLayer scattering_layer(int k) const;
-    /// A_k(mu) / n_k: the factor of layer k's single scattering for an air cosine, one per direction
-    /// (Fresnel transmissions of every interface above it and the attenuation by the layers above).
-    double path_factor(int k, double mu_air) const;
+    /// rte::single_scattering of this stack.
+    double single_scattering(double mu_o, double mu_i, double phi) const {
+        return rte::single_scattering(m_setup, mu_o, mu_i, phi);
+    }
+    using ScatteringLayer = rte::ScatteringLayer;
+    ScatteringLayer scattering_layer(int k) const { return rte::scattering_layer(m_setup, k); }
+    double path_factor(int k, double mu_air) const { return rte::path_factor(m_setup, k, mu_air); }
     /// Cosine in layer k of a ray with cosine mu_air in air.
     double inside(int k, double mu_air) const;
 

@@ -108,6 +108,7 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
                    "solved, in order; tables add their binning error"}}},
         {"wavelengths", samples},
         {"wavelengths_interpolated", m.wavelengths_interpolated},
+        {"wavelengths_single_scattering_only", m.single_only.size()},
         {"colorspace", std::string(material::to_string(m.spec.colorspace))},
         {"colorspace_name", std::string(material::long_name(m.spec.colorspace))},
         {"gamut_scale", m.gamut_scale},
