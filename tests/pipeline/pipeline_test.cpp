@@ -656,3 +656,38 @@ TEST(PipelineTable, RandomDirectionsAgreeWithTheModelWithinTheBinning) {
 
 } // namespace
 } // namespace brdf::test
+
+namespace brdf::test {
+namespace {
+
+// A skipped wavelength's interpolation error reaches the colour with its colour weight: a bump in
+// the index at 410 nm that no quadratic follows (1e-3, thirty times a third of the tolerance) is
+// skipped when 410 nm carries 1e-4 of the average weight (its error then counts as 1e-7), and
+// solved when it weighs as much as the others.
+TEST(SelectWavelengths, AWavelengthCountsByItsColourWeight) {
+    std::vector<model::SpectralOptics> optics(17);
+    for (std::size_t k = 0; k < optics.size(); ++k) {
+        model::LayerOptics l;
+        l.index = 1.5 + 1e-4 * static_cast<double>(k) + (k == 1 ? 1e-3 : 0.0);
+        l.medium.omega = 1.0;
+        l.medium.beta = {1.0, 1.5, 1.0};
+        l.g = 0.5;
+        optics[k].wavelength_nm = 400.0 + 10.0 * static_cast<double>(k);
+        optics[k].layers.push_back(l);
+    }
+    const auto solved_410 = [&](double weight_410) {
+        std::vector<model::Rgb> weights(optics.size(), model::Rgb{1.0, 1.0, 1.0});
+        weights[1] = {weight_410, weight_410, weight_410};
+        const model::SpectralSelection pick = model::select_wavelengths(optics, weights, 1e-4);
+        model::Rgb folded{0.0, 0.0, 0.0}; // the quadratic's weights sum to 1: no colour is lost
+        for (const model::Rgb& w : pick.weights)
+            for (int c = 0; c < 3; ++c) folded[c] += w[c];
+        EXPECT_NEAR(folded[0], 16.0 + weight_410, 1e-12);
+        return std::find(pick.solved.begin(), pick.solved.end(), 1u) != pick.solved.end();
+    };
+    EXPECT_FALSE(solved_410(1e-4));
+    EXPECT_TRUE(solved_410(1.0));
+}
+
+} // namespace
+} // namespace brdf::test

@@ -242,6 +242,21 @@ SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, 
                                      (x - la) * (x - lb) / ((lc - la) * (lc - lb)),
                                      (x - la) * (x - lc) / ((lb - la) * (lb - lc))};
     };
+    // A skipped wavelength's error reaches the colour with its colour weight: one that carries a
+    // fraction phi of a channel's weights (sum of |w|) may err by (tol / 3) / (n phi) where that is
+    // looser, i.e. a wavelength of less than the average weight (the spectrum's ends) counts by
+    // its weight. Each channel's colour-weighted error stays below sum_j max(phi_j, 1 / n) tol / 3
+    // <= 2 tol / 3, and no wavelength is held tighter than before. share[j] = min(1, n max_c phi_jc).
+    std::vector<double> share(n, 1.0);
+    Rgb total{0.0, 0.0, 0.0};
+    for (const Rgb& w : weights)
+        for (int c = 0; c < 3; ++c) total[c] += std::abs(w[c]);
+    for (std::size_t k = 0; k < n; ++k) {
+        double most = 0.0;
+        for (int c = 0; c < 3; ++c)
+            if (total[c] > 0.0) most = std::max(most, static_cast<double>(n) * std::abs(weights[k][c]) / total[c]);
+        share[k] = std::min(1.0, most);
+    }
     std::vector<char> keep(n, 0);
     keep.front() = keep.back() = 1;
     // Intervals [a, b] with a kept midpoint c: accepted when the quadratic through a, c, b
@@ -267,7 +282,7 @@ SpectralSelection select_wavelengths(const std::vector<SpectralOptics>& optics, 
             const auto l = lagrange(a, c, b, lambda(j));
             const auto fj = feature(j);
             for (std::size_t q = 0; q < fj.size(); ++q)
-                if (std::abs(fj[q].value - (l[0] * fa[q].value + l[1] * fc[q].value + l[2] * fb[q].value)) >
+                if (share[j] * std::abs(fj[q].value - (l[0] * fa[q].value + l[1] * fc[q].value + l[2] * fb[q].value)) >
                     allowed(fa, fb, q))
                     good = false;
         }

@@ -120,7 +120,9 @@ struct SolvedMaterial {
 
 /// Which wavelengths of a spectrum to solve: where the optics vary smoothly the BRDF is
 /// interpolated (piecewise quadratic in wavelength) between solved ones, which folds each skipped wavelength's
-/// colour weight onto its neighbours. All are solved for tolerance < 1e-6 ("reference").
+/// colour weight onto its neighbours. All are solved for tolerance < 1e-6 ("reference"). A wavelength
+/// of less than the average colour weight (the spectrum's ends) may err in proportion: its error
+/// reaches the colour with its weight.
 struct SpectralSelection {
     std::vector<std::size_t> solved; ///< indices into the spectrum, ascending, first and last included
     std::vector<Rgb> weights;        ///< colour weight of each solved wavelength
