@@ -255,7 +255,9 @@ TEST(FilmTransmittance, AConservativeFilmOverBlackTransmitsWhatItDoesNotReflect)
     const material::MaterialSpec spec = spec_from(
         {{"name", "w"}, {"medium", hg_medium(1.0, 0.5, 2.0)}, {"surface", "smooth"}, {"substrate", {{"albedo", 0.0}}}});
     const model::SolvedMaterial m = model::solve_material(spec, model::Device::Cpu);
-    model::MaterialOptics optics{{m.samples[0].optics}, {m.samples[0].weight}, 0};
+    model::MaterialOptics optics;
+    optics.optics = {m.samples[0].optics};
+    optics.weights = {m.samples[0].weight};
     const double t = model::diffuse_transmittance(spec, optics, m.settings.streams).at(0);
     double r = 0.0;
     const int steps = 400;
