@@ -556,10 +556,15 @@ std::vector<SpectralCase> spectral_cases() {
     for (const auto& spec : material::load_specs(source_dir() / "examples/catalogue.json"))
         if (!spec.layers[0].medium) out.push_back({"catalogue.json", spec.name, ""});
     out.push_back({"films.json", "white-25um-on-black", ""});
+    out.push_back({"films.json", "clearcoat-over-red-basecoat", ""});
     out.push_back({"", "silica-matting-5um",
                    R"({"name": "silica-matting-5um", "binder": {"material": "pmma"}, "pigments": [{"material":
                        "silica", "volume_fraction": 0.05, "size": {"distribution": "gamma", "r_eff_um": 5,
                        "v_eff": 0.1}}]})"});
+    out.push_back({"", "silica-matting-film",
+                   R"({"name": "silica-matting-film", "binder": {"material": "pmma"}, "pigments": [{"material":
+                       "silica", "volume_fraction": 0.05, "size": {"distribution": "gamma", "r_eff_um": 5,
+                       "v_eff": 0.1}}], "thickness_um": 200, "substrate": {"albedo": 0.8}})"});
     return out;
 }
 

@@ -47,11 +47,25 @@ bool coloured(const std::array<double, 3>& a) { return a[0] != a[1] || a[1] != a
 
 // Whether each wavelength's direct single scattering is apart from its orders (Reflection::
 // order_grid removes it there; table fills and SolvedMaterial::brdf add it from the optics): a
-// spectral half-space under no or a smooth top, evaluated by the exact model. Under a rough top the
-// orders carry it, and in a film so do the paths off the substrate and the inner interfaces.
-bool single_scattering_apart(const material::MaterialSpec& spec) {
-    return !analytic(spec) && spec.model == material::Model::Exact && spec.surface.kind != material::Surface::Rough &&
-           spec.layers.size() == 1 && spec.layers.front().semi_infinite();
+// spectral stack under no or a smooth top, evaluated by the exact model, whose layers share one
+// index at every wavelength, as a half-space or over a grey (Lambertian) substrate. Every other
+// once-scattered path then meets the substrate's diffuse reflection, which averages the phase
+// function over angles as the multiple scattering does. Under a rough top the orders carry the
+// single scattering (the rough refraction spreads it), and an index step between layers reflects
+// a once-scattered ray specularly, keeping the phase function's ripple in what the orders hold.
+bool single_scattering_apart(const material::MaterialSpec& spec, const std::vector<SpectralOptics>& optics) {
+    if (analytic(spec) || spec.model != material::Model::Exact || spec.surface.kind == material::Surface::Rough)
+        return false;
+    if (spec.substrate && coloured(spec.substrate->albedo)) return false;
+    for (const SpectralOptics& o : optics) {
+        double above = 1.0; // as make_stack: a layer given without an index takes the one above
+        for (std::size_t k = 0; k < o.layers.size(); ++k) {
+            const double index = o.layers[k].index_from_above ? above : o.layers[k].index;
+            if (k > 0 && index != above) return false;
+            above = index;
+        }
+    }
+    return true;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -459,7 +473,7 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
         std::vector<Rgb> all(rgb.begin(), rgb.end());
         // Where the single scattering is apart, a skipped wavelength keeps its own exactly and
         // only its multiply scattered light is interpolated (SingleScatteringSample).
-        const bool apart = single_scattering_apart(spec);
+        const bool apart = single_scattering_apart(spec, optics);
         const SpectralSelection pick =
             select_wavelengths(optics, all, st.select_wavelengths ? st.tolerance : 0.0, apart);
         std::vector<char> solved(optics.size(), 0);

@@ -82,7 +82,8 @@ struct SolvedMaterial {
     NumericalSettings settings;
     std::vector<WavelengthSolution> samples;
     /// The wavelengths whose single scattering alone is evaluated (empty unless select_wavelengths
-    /// interpolated only the multiply scattered light: a half-space under no or a smooth top).
+    /// interpolated only the multiply scattered light: under no or a smooth top, a half-space or
+    /// layers of one index over a grey substrate).
     std::vector<SingleScatteringSample> single_only;
     std::string device; ///< "opencl: DEVICE NAME" or "cpu"
     std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)

@@ -73,7 +73,9 @@ struct FillInputs {
 };
 
 /// The fill inputs of every sample with its colour weight, on the material's table grid, or on
-/// `zenith_grid` zenith angles (0..90 degrees) when that is positive and coarser (a preview's).
+/// `zenith_grid` zenith angles (0..90 degrees) when that is positive and coarser (a preview's);
+/// the single scattering of every wavelength, the skipped ones' too (SolvedMaterial::single_only),
+/// each with the weight of its own (WavelengthSolution::single_weight).
 FillInputs prepare_fill(const SolvedMaterial& material, int zenith_grid = 0);
 
 /// The fill of up to three solved samples (wavelengths) at once, one in each channel: channel c of
