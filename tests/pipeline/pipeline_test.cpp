@@ -267,6 +267,20 @@ TEST(PipelineTable, MattingAgentsWavelengthsShareTheirSingleScattering) {
     EXPECT_LT(shared_single_scattering_error(model::solve_material(spec, model::Device::Cpu, st)), 1e-6);
 }
 
+// A film whose slab factor 1 - exp(-tau (1/u_o + 1/u_i)) is 1 to within 1 % of the tolerance
+// (the seed's rutile, 25 um: tau 11-14, exp(-2 tau) <= 1.3e-10) scatters once as a half-space:
+// its wavelengths share their terms on index nodes (it kept one per wavelength, 41, before), and
+// the shared terms still match each wavelength's exact slab term.
+TEST(PipelineTable, AnOpaqueFilmsWavelengthsShareTheirSingleScattering) {
+    const auto spec = spec_from(R"({"name": "film", "binder": {"material": "pmma"}, "spectrum": "visible",
+        "thickness_um": 25, "substrate": {"albedo": 0.0},
+        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
+                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}]})");
+    model::NumericalSettings st = model::settings_for(spec.accuracy.tolerance);
+    st.streams = st.max_streams = 16;
+    EXPECT_LT(shared_single_scattering_error(model::solve_material(spec, model::Device::Cpu, st)), 1e-6);
+}
+
 // The same matting agent at "default" (64 streams, the count its stream check ends at): white and
 // non-absorbing, its diffuse albedo + mirror is 1 to the solve's error (1e-11) at every wavelength.
 // That is no colour for the gamut fit to scale: it did, by 0.47, and warned of a colour outside

@@ -59,7 +59,9 @@ struct FillInputs {
     /// end), so the term's factor is t(mu_o) t(mu_i).
     int fresnel_points = 0;
     std::vector<double> transmission;
-    std::vector<double> tau; ///< [s]: the layer's (delta-M scaled) optical thickness, infinite for a half-space
+    /// [s]: the layer's (delta-M scaled) optical thickness, infinite for a half-space and for a
+    /// layer whose slab factor is 1 to within 1 % of the tolerance (exp(-2 tau) below it)
+    std::vector<double> tau;
 
     /// The rough top's first-surface lobe (every sample shares alpha, distribution and masking).
     enum class Lobe { None = 0, Ggx = 1, Beckmann = 2 };
