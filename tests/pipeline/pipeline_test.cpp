@@ -710,3 +710,26 @@ TEST(SelectWavelengths, AWavelengthCountsByItsColourWeight) {
 
 } // namespace
 } // namespace brdf::test
+
+namespace brdf::test {
+namespace {
+
+// The spec's limit on the phase function's Legendre series is a clear LimitError naming the terms,
+// the wavelength and the key to raise (5 um silica spheres carry 500-960 terms in the visible).
+TEST(PipelineLimits, ALegendreSeriesOverTheSpecsLimitIsRefused) {
+    const auto spec = spec_from(R"({"name": "silica", "binder": {"material": "pmma"}, "spectrum": "visible",
+        "limits": {"max_legendre_terms": 300},
+        "pigments": [{"material": "silica", "volume_fraction": 0.05,
+                      "size": {"distribution": "gamma", "r_eff_um": 5, "v_eff": 0.1}}]})");
+    try {
+        model::solve_material(spec, model::Device::Cpu);
+        FAIL() << "no LimitError";
+    } catch (const Error& e) {
+        EXPECT_EQ(e.kind(), ErrorKind::Limit) << e.what();
+        EXPECT_NE(std::string(e.what()).find("max_legendre_terms"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(" nm"), std::string::npos) << e.what();
+    }
+}
+
+} // namespace
+} // namespace brdf::test

@@ -512,8 +512,9 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
     }
     if (out.single_weights.empty()) out.single_weights = weights;
     // The spec's limit on the phase function's Legendre series (material::SpecLimits): the order
-    // matrices and the table's Fourier sums grow with it. Known only now, from the optics.
-    for (const SpectralOptics& o : optics)
+    // matrices and the table's Fourier sums grow with it. Known only now, from the optics (the
+    // skipped wavelengths' too where their single scattering is evaluated).
+    const auto check_limit = [&](const SpectralOptics& o) {
         for (const LayerOptics& l : o.layers)
             if (l.medium.beta.size() > spec.limits.max_legendre_terms)
                 throw LimitError(cat(who, ": the phase function's Legendre series has ", l.medium.beta.size(),
@@ -521,6 +522,9 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
                                      ", more than the limit of ", spec.limits.max_legendre_terms,
                                      "; to override, set \"limits\": {\"max_legendre_terms\": ",
                                      l.medium.beta.size(), "} in the spec"));
+    };
+    for (const SpectralOptics& o : optics) check_limit(o);
+    for (const SpectralOptics& o : out.single_only) check_limit(o);
     return out;
 }
 
