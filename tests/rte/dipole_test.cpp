@@ -58,7 +58,7 @@ TEST(Dipole, SingleScatteringIsTheExactModelsOwn) {
         for (double a : {0.2, 0.7, 1.0})
             for (double b : {0.3, 0.9})
                 for (double phi : {0.0, 2.0}) {
-                    const double tms = r.scattering_layer(0).albedo / medium.omega;
+                    const double tms = rte::scattering_layer(r.setup(), 0).albedo / medium.omega;
                     const double want = r.single_scattering(b, a, phi) / tms / std::numbers::pi;
                     EXPECT_NEAR(d.single_scattering_brdf(a, b, phi), want, 1e-13 * want);
                 }

@@ -68,6 +68,17 @@ bool single_scattering_apart(const material::MaterialSpec& spec, const std::vect
     return true;
 }
 
+// The terms of SolvedMaterial::single_scattering_correction, in order: each solved sample's set-up
+// with single_weight - weight, then each skipped wavelength's with its weight; f(setup, weight).
+void for_each_single_correction(const SolvedMaterial& m, auto&& f) {
+    for (const WavelengthSolution& s : m.samples) {
+        const Rgb& a = s.single_weight;
+        const Rgb& b = s.weight;
+        f(s.reflection.setup(), Rgb{a[0] - b[0], a[1] - b[1], a[2] - b[2]});
+    }
+    for (const SingleScatteringSample& u : m.single_only) f(u.setup, u.weight);
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -484,9 +495,9 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
                 out.single_only_weights.push_back(all[k]);
             }
         std::vector<SpectralOptics> kept;
-        for (std::size_t j = 0; j < pick.solved.size(); ++j) {
-            kept.push_back(std::move(optics[pick.solved[j]]));
-            out.single_weights.push_back(apart ? all[pick.solved[j]] : pick.weights[j]);
+        for (std::size_t k : pick.solved) {
+            kept.push_back(std::move(optics[k]));
+            if (apart) out.single_weights.push_back(all[k]); // its own, not the folded one
         }
         optics = std::move(kept);
         weights = pick.weights;
@@ -507,10 +518,10 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
                 }
             optics = std::move(split);
             weights = std::move(split_weights);
-            out.single_weights = weights;
         }
     }
-    if (out.single_weights.empty()) out.single_weights = weights;
+    if (out.single_weights.empty()) out.single_weights = weights; // single scattering not apart
+
     // The spec's limit on the phase function's Legendre series (material::SpecLimits): the order
     // matrices and the table's Fourier sums grow with it. Known only now, from the optics (the
     // skipped wavelengths' too where their single scattering is evaluated).
@@ -718,12 +729,7 @@ void fit_into_gamut(SolvedMaterial& m) {
             in.brdf.insert(in.brdf.end(), 2 * reflectance_mus.size(), 0.0); // (albedo, mirror) pairs
             in.reflectance.insert(in.reflectance.end(), reflectance_mus.size(), 0.0);
         };
-        for (const WavelengthSolution& s : m.samples) {
-            const Rgb& a = s.single_weight;
-            const Rgb& b = s.weight;
-            add_single(s.reflection.setup(), Rgb{a[0] - b[0], a[1] - b[1], a[2] - b[2]});
-        }
-        for (const SingleScatteringSample& u : m.single_only) add_single(u.setup, u.weight);
+        for_each_single_correction(m, add_single);
     }
     in.probe_count = brdf_probes + 2 * reflectance_mus.size();
     in.reflectance_count = reflectance_mus.size();
@@ -765,10 +771,7 @@ Rgb SolvedMaterial::single_scattering_correction(double mu_i, double mu_o, doubl
         const double v = rte::single_scattering(setup, mu_o, mu_i, phi) * std::numbers::inv_pi;
         for (int c = 0; c < 3; ++c) out[c] += weight[c] * v;
     };
-    for (const WavelengthSolution& s : samples)
-        add(s.reflection.setup(), Rgb{s.single_weight[0] - s.weight[0], s.single_weight[1] - s.weight[1],
-                                      s.single_weight[2] - s.weight[2]});
-    for (const SingleScatteringSample& u : single_only) add(u.setup, u.weight);
+    for_each_single_correction(*this, add);
     return out;
 }
 

@@ -144,8 +144,6 @@ public:
     double single_scattering(double mu_o, double mu_i, double phi) const {
         return rte::single_scattering(m_setup, mu_o, mu_i, phi);
     }
-    using ScatteringLayer = rte::ScatteringLayer;
-    ScatteringLayer scattering_layer(int k) const { return rte::scattering_layer(m_setup, k); }
     double path_factor(int k, double mu_air) const { return rte::path_factor(m_setup, k, mu_air); }
     /// Cosine in layer k of a ray with cosine mu_air in air.
     double inside(int k, double mu_air) const;
