@@ -764,6 +764,13 @@ Rgb SolvedMaterial::brdf(double theta_i, double theta_o, double phi) const {
     return material::clip_negative(sum);
 }
 
+std::vector<SingleScatteringSource> SolvedMaterial::single_scattering_sources() const {
+    std::vector<SingleScatteringSource> out;
+    for (const WavelengthSolution& s : samples) out.push_back({&s.reflection.setup(), s.single_weight});
+    for (const SingleScatteringSample& u : single_only) out.push_back({&u.setup, u.weight});
+    return out;
+}
+
 Rgb SolvedMaterial::single_scattering_correction(double mu_i, double mu_o, double phi) const {
     Rgb out{0.0, 0.0, 0.0};
     if (single_only.empty()) return out;

@@ -77,6 +77,12 @@ struct SingleScatteringSample {
     rte::StackSetup setup; ///< set up at the material's streams (the delta-M fraction of TMS)
 };
 
+/// One wavelength's direct single scattering: its set-up stack and the colour weight it takes.
+struct SingleScatteringSource {
+    const rte::StackSetup* setup = nullptr;
+    Rgb weight{};
+};
+
 struct SolvedMaterial {
     material::MaterialSpec spec;
     NumericalSettings settings;
@@ -117,6 +123,9 @@ struct SolvedMaterial {
     /// (1/sr, cosines and azimuth): sum_k (single_weight_k - weight_k) SS_k + sum_u weight_u SS_u
     /// over single_only; 0 unless single_only is in use.
     Rgb single_scattering_correction(double mu_i, double mu_o, double phi) const;
+    /// Every wavelength's direct single scattering: each solved sample's with its single_weight,
+    /// then each of single_only (pointing into this material).
+    std::vector<SingleScatteringSource> single_scattering_sources() const;
 };
 
 /// Which wavelengths of a spectrum to solve: where the optics vary smoothly the BRDF is

@@ -410,16 +410,10 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
     keep_per_sample();
 }
 
-// One single-scattering source: a set-up stack and the colour weight of its direct single scattering.
-struct SingleSource {
-    const rte::StackSetup* setup = nullptr;
-    Rgb weight{};
-};
-
 // The fill inputs of the samples `which` with colour weights `weights` (one per entry of `which`)
 // and the single scattering of `singles`.
 FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::size_t>& which,
-                         const std::vector<Rgb>& weights, const std::vector<SingleSource>& singles,
+                         const std::vector<Rgb>& weights, const std::vector<SingleScatteringSource>& singles,
                          int zenith_grid = 0) {
     FillInputs in;
     const int e = zenith_grid > 0 ? std::min(zenith_grid, material.settings.table_grid) : material.settings.table_grid;
@@ -429,7 +423,7 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
     // A grey material (every colour weight the same in all channels) is filled in one channel.
     const auto is_grey = [](const Rgb& w) { return w[0] == w[1] && w[1] == w[2]; };
     const bool grey = std::all_of(weights.begin(), weights.end(), is_grey) &&
-                      std::all_of(singles.begin(), singles.end(), [&](const SingleSource& t) { return is_grey(t.weight); });
+                      std::all_of(singles.begin(), singles.end(), [&](const SingleScatteringSource& t) { return is_grey(t.weight); });
     in.channels = grey ? 1 : 3;
     const int channels = in.channels;
     in.fourier.assign(static_cast<std::size_t>(mp) * channels * e * e, 0.0);
@@ -470,7 +464,7 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
     // indices). They stay 0 and are not summed: half the table under a binder of 1.5, where each
     // point sums thousands of Legendre terms for big spheres.
     double lowest_index = std::numeric_limits<double>::infinity();
-    for (const SingleSource& t : singles)
+    for (const SingleScatteringSource& t : singles)
         for (int layer = 0; layer < static_cast<int>(t.setup->layers.size()); ++layer)
             lowest_index = std::min(lowest_index, rte::scattering_layer(*t.setup, layer).index);
     int first_phase_point = 0; // the cubic's taps reach one point below the interval; one more for rounding
@@ -525,14 +519,11 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
 FillInputs prepare_fill(const SolvedMaterial& material, int zenith_grid) {
     std::vector<std::size_t> all(material.samples.size());
     std::vector<Rgb> weights;
-    std::vector<SingleSource> singles;
     for (std::size_t k = 0; k < all.size(); ++k) {
         all[k] = k;
         weights.push_back(material.samples[k].weight);
-        singles.push_back({&material.samples[k].reflection.setup(), material.samples[k].single_weight});
     }
-    for (const SingleScatteringSample& u : material.single_only) singles.push_back({&u.setup, u.weight});
-    return assemble_fill(material, all, weights, singles, zenith_grid);
+    return assemble_fill(material, all, weights, material.single_scattering_sources(), zenith_grid);
 }
 
 void for_each_spectral_fill(const SolvedMaterial& material, const std::function<void(const SpectralFill&)>& fill) {
@@ -540,7 +531,7 @@ void for_each_spectral_fill(const SolvedMaterial& material, const std::function<
         SpectralFill group;
         std::vector<std::size_t> which;
         std::vector<Rgb> weights;
-        std::vector<SingleSource> singles;
+        std::vector<SingleScatteringSource> singles;
         for (int c = 0; c < 3 && first + c < material.samples.size(); ++c) {
             which.push_back(first + c);
             Rgb one_hot{0.0, 0.0, 0.0};

@@ -75,13 +75,10 @@ void write_fourier_output(const std::filesystem::path& path, const model::Solved
     // Single scattering at fixed (mu_i, mu_o) is p(cos Theta) with cos Theta linear in cos(phi): a
     // polynomial of degree L - 1 in cos(phi) for L Legendre terms, i.e. exactly L Fourier orders.
     int ss_orders = 0;
-    const auto single_orders = [&](const rte::StackSetup& setup) {
-        if (setup.stack.top != rte::Top::Rough)
-            for (int layer = 0; layer < static_cast<int>(setup.layers.size()); ++layer)
-                ss_orders = std::max(ss_orders, static_cast<int>(rte::scattering_layer(setup, layer).beta->size()));
-    };
-    for (const model::WavelengthSolution& s : solved.samples) single_orders(s.reflection.setup());
-    for (const model::SingleScatteringSample& u : solved.single_only) single_orders(u.setup);
+    for (const model::SingleScatteringSource& t : solved.single_scattering_sources())
+        if (t.setup->stack.top != rte::Top::Rough)
+            for (int layer = 0; layer < static_cast<int>(t.setup->layers.size()); ++layer)
+                ss_orders = std::max(ss_orders, static_cast<int>(rte::scattering_layer(*t.setup, layer).beta->size()));
     if (fill.samples == 0) ss_orders = 0;
     // A rough top's first-surface lobe (in `fill`, evaluated exactly per direction) is expanded
     // the same way. In azimuth it is about alpha wide at grazing and wider towards the normal, so
