@@ -205,7 +205,8 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
             checked.push_back(lower);
             const double rate = std::log(d_lower / estimate) / std::log(static_cast<double>(below) / lower);
             if (rate >= 4.0) {
-                const double extrapolated = estimate / (std::pow(static_cast<double>(n) / below, std::min(rate, 6.0)) - 1.0);
+                const double step = std::pow(static_cast<double>(n) / below, std::min(rate, 6.0));
+                const double extrapolated = estimate / (step - 1.0);
                 log::debug("streams ", lower, ", ", below, " and ", n, " differ by ", d_lower, " and ", estimate,
                            ": error falling as N^-", rate, ", ", extrapolated, " at ", n);
                 if (extrapolated <= 0.5 * st.tolerance) {
