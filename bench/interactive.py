@@ -134,13 +134,13 @@ def disort_grid(streams=32):
     return rad, seconds, thetas, mus, phis
 
 
-def blas_core(tool, env=None):
-    """The kernels OpenBLAS picked for this CPU, or None: its OPENBLAS_VERBOSE=2 line, the last one
-    where the program executed itself again with better kernels (src/brdf/core/serial_blas.cpp)."""
-    env = dict(env or os.environ, OPENBLAS_VERBOSE="2")
+def blas_cores(tool):
+    """The kernels OpenBLAS picked for this CPU, one per start of the program (OPENBLAS_VERBOSE=2):
+    two where it fell back to Prescott's and the program executed itself again with better ones
+    (src/brdf/core/serial_blas.cpp)."""
+    env = dict(os.environ, OPENBLAS_VERBOSE="2")
     out = subprocess.run([tool, "--version"], capture_output=True, text=True, env=env)
-    found = re.findall(r"Core: (\S+)", out.stdout + out.stderr)
-    return found[-1] if found else None
+    return re.findall(r"Core: (\S+)", out.stdout + out.stderr)
 
 
 def main():
@@ -167,10 +167,9 @@ def main():
     # programs then pick the kernels of the CPU's features themselves: there the seed also runs with
     # OpenBLAS's own fallback (OPENBLAS_CORETYPE=Prescott), alternating with the default.
     seed = spec(work, "seed", SEED)
-    core = blas_core(tool)
-    verbose = subprocess.run([tool, "--version"], capture_output=True, text=True,
-                             env=dict(os.environ, OPENBLAS_VERBOSE="2"))
-    picked_here = (verbose.stdout + verbose.stderr).count("Core:") > 1
+    cores = blas_cores(tool)
+    core = cores[-1] if cores else None
+    picked_here = len(cores) > 1
     plain_runs, forced_runs = [], []
     measure([tool, "compute", seed, "-o", out, "--force"])  # warm-up: the OpenCL programs' binaries
     for _ in range(a.repeat):

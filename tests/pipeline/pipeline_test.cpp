@@ -548,11 +548,6 @@ TEST(Pipeline, RefusesWhatItCannotComputeYet) {
               "no InputError");
 }
 
-} // namespace
-} // namespace brdf::test
-
-namespace brdf::test {
-namespace {
 
 // Interpolating the BRDF in wavelength between the solved ones stays within the requested
 // tolerance of solving every wavelength, for the example catalogue's particulate materials.
@@ -623,11 +618,6 @@ INSTANTIATE_TEST_SUITE_P(Examples, PipelineSpectral, ::testing::ValuesIn(spectra
                              return n;
                          });
 
-} // namespace
-} // namespace brdf::test
-
-namespace brdf::test {
-namespace {
 
 TEST(PipelineGamut, SaturatedYellowIsBroughtIntoGamutKeepingLuminance) {
     const char* text = R"({"name": "cds", "binder": {"material": "pmma"}, "accuracy": "draft",
@@ -646,11 +636,6 @@ TEST(PipelineGamut, SaturatedYellowIsBroughtIntoGamutKeepingLuminance) {
     }
 }
 
-} // namespace
-} // namespace brdf::test
-
-namespace brdf::test {
-namespace {
 
 // A table looked up at random directions (nearest bin, as renderers and the MERL reader do) agrees
 // with eval on the spec at those exact directions within the binning error of 1-degree bins.
@@ -673,11 +658,6 @@ TEST(PipelineTable, RandomDirectionsAgreeWithTheModelWithinTheBinning) {
     EXPECT_LT(worst, 0.15);
 }
 
-} // namespace
-} // namespace brdf::test
-
-namespace brdf::test {
-namespace {
 
 // A skipped wavelength's interpolation error reaches the colour with its colour weight: a bump in
 // the index at 410 nm that no quadratic follows (1e-3, thirty times a third of the tolerance) is
@@ -708,11 +688,6 @@ TEST(SelectWavelengths, AWavelengthCountsByItsColourWeight) {
     EXPECT_TRUE(solved_410(1.0));
 }
 
-} // namespace
-} // namespace brdf::test
-
-namespace brdf::test {
-namespace {
 
 // The spec's limit on the phase function's Legendre series is a clear LimitError naming the terms,
 // the wavelength and the key to raise (5 um silica spheres carry 500-960 terms in the visible).

@@ -157,6 +157,13 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     probes.push_back(peaked);
     if (bright != peaked) probes.push_back(bright);
     int n = st.streams;
+    // The largest disagreement of two solves of the probes.
+    const auto largest_disagreement = [&](const std::vector<rte::Reflection>& a,
+                                          const std::vector<rte::Reflection>& b) {
+        double d = 0.0;
+        for (std::size_t p = 0; p < probes.size(); ++p) d = std::max(d, disagreement(a[p], b[p]));
+        return d;
+    };
     // The larger solve of one round is the smaller one of the next: kept, not solved again.
     std::vector<rte::Reflection> at_n;
     const auto t0 = std::chrono::steady_clock::now();
@@ -192,12 +199,6 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
         const std::vector<rte::Reflection> at_below = solve_probes(probes, below).first;
         std::tie(at_n, probe_seconds) = solve_probes(probes, n);
         checked = {below, n};
-        const auto largest_disagreement = [&](const std::vector<rte::Reflection>& a,
-                                              const std::vector<rte::Reflection>& b) {
-            double d = 0.0;
-            for (std::size_t p = 0; p < probes.size(); ++p) d = std::max(d, disagreement(a[p], b[p]));
-            return d;
-        };
         estimate = largest_disagreement(at_below, at_n);
         if (estimate <= st.tolerance) return chosen();
         if (const int lower = 3 * below / 4 / 2 * 2; lower >= 2) {
@@ -220,15 +221,13 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     for (;;) {
         const int next = std::min(st.max_streams, (3 * n + 1) / 2);
         if (next <= n) return chosen(); // at the cap: keep the last estimate
-        estimate = 0.0;
         if (at_n.empty()) {
             std::tie(at_n, probe_seconds) = solve_probes(probes, n);
             checked.push_back(n);
         }
         auto [at_next, next_seconds] = solve_probes(probes, next);
         checked.push_back(next);
-        for (std::size_t p = 0; p < probes.size(); ++p)
-            estimate = std::max(estimate, disagreement(at_n[p], at_next[p]));
+        estimate = largest_disagreement(at_n, at_next);
         if (estimate <= st.tolerance) {
             // The first batch's time can hold the device's one-off work (PoCL compiles a kernel for
             // its launch on first use: ~2 s on a cold cache); the larger, later solve bounds it.
