@@ -104,7 +104,9 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
           {"checked_streams", m.checked_streams},
           {"note", "solver_estimate: relative BRDF difference between the chosen stream count and "
                    "the last count checked against it (3/4 of it, or 1.5 times as many) on the "
-                   "hardest wavelengths (docs/quadrature-study.md); checked_streams: the counts "
+                   "hardest wavelengths (docs/quadrature-study.md), or that difference from 3/4 of "
+                   "it extrapolated where a third count (9/16) measured the error falling as N^-4 "
+                   "or faster (docs/physics.md, \"Stream count\"); checked_streams: the counts "
                    "solved, in order; tables add their binning error"}}},
         {"wavelengths", samples},
         {"wavelengths_interpolated", m.wavelengths_interpolated},
