@@ -32,11 +32,14 @@ static void catmull_rom(double f, double w[4]) {
 }
 
 // Catmull-Rom taps and weights along one zenith axis of the grid (table_fill.cpp: stencil).
-static void stencil(double theta, int grid, int idx[4], double w[4]) {
-    const double t = clamp_ref(theta / (0.5 * TF_PI), 0.0, 1.0) * (grid - 1);
+static void stencil(double mu, int grid, int idx[4], double w[4]) {
+    const double t = acos(clamp_ref(2.0 * mu - 1.0, -1.0, 1.0)) / TF_PI * (grid - 1);
     const int i0 = min((int)t, grid - 2);
     catmull_rom(t - i0, w);
-    for (int k = 0; k < 4; ++k) idx[k] = clamp(i0 - 1 + k, 0, grid - 1);
+    for (int k = 0; k < 4; ++k) {
+        const int j = i0 - 1 + k;
+        idx[k] = j > grid - 1 ? 2 * (grid - 1) - j : max(j, 0);
+    }
 }
 
 // table_fill.cpp: cubic_taps (one ghost point beyond each end: x_k = (k - 1) / (points - 3)); returns k.
@@ -114,7 +117,6 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
     }
     // table_fill.cpp: cell_directions.
     const double mu_i = clamp_ref(wiz, -1.0, 1.0), mu_o = clamp_ref(woz, -1.0, 1.0);
-    const double theta_i = acos(mu_i), theta_o = acos(mu_o);
     const double horizontal = sqrt((wix * wix + wiy * wiy) * (wox * wox + woy * woy));
     const double c1 = horizontal > 0.0 ? clamp_ref((wix * wox + wiy * woy) / horizontal, -1.0, 1.0) : 1.0;
 
@@ -124,8 +126,8 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         const int e = p.grid;
         int so_idx[4], si_idx[4];
         double so_w[4], si_w[4];
-        stencil(theta_o, e, so_idx, so_w);
-        stencil(theta_i, e, si_idx, si_w);
+        stencil(mu_o, e, so_idx, so_w);
+        stencil(mu_i, e, si_idx, si_w);
         double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
         __global const double* fourier = data + p.fourier_offset;
         const int mp = (p.orders + TF_ORDER_BLOCK - 1) / TF_ORDER_BLOCK * TF_ORDER_BLOCK;

@@ -93,8 +93,9 @@ Rgb weighted(const std::vector<WavelengthSolution>& samples, auto&& value) {
 }
 
 // The directions where the stream check and the gamut fit probe the BRDF: 0, 45, 75, 85 and 89.5
-// degrees (the last about the most grazing bin centre of a MERL table) for both directions, on the
-// light's side, across and on the mirror side.
+// degrees for both directions, on the light's side, across and on the mirror side. A MERL table's
+// bin centres reach 89.9998 degrees; one per cent of its cells have a direction beyond 89.5
+// (docs/physics.md, "The tables' zenith grid").
 constexpr double probe_mus[] = {1.0, 0.7071, 0.2588, 0.0872, 0.0087};
 constexpr double probe_phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
 

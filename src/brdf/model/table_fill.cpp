@@ -44,18 +44,32 @@ void catmull_rom(double f, double w[4]) {
     w[3] = 0.5 * (f3 - f2);
 }
 
-// Taps and weights along one zenith axis of the grid.
+} // namespace
+
+double zenith_grid_cosine(int a, int grid) {
+    return 0.5 * (1.0 + std::cos(std::numbers::pi * a / (grid - 1))); // cos^2 v
+}
+
+namespace {
+
+// Taps and weights along one zenith axis of the grid (nodes uniform in v = acos(sqrt(mu)), see
+// zenith_grid_cosine): at the normal the first node stands in for the tap before it, at the horizon
+// the tap beyond it is the node mirrored there (mu is even in v about 90 degrees).
 struct Stencil {
     int idx[4];
     double w[4];
 };
 
-Stencil stencil(double theta, int grid) {
-    const double t = std::clamp(theta / (0.5 * std::numbers::pi), 0.0, 1.0) * (grid - 1);
+Stencil stencil(double mu, int grid) {
+    // v = acos(sqrt(mu)) = acos(2 mu - 1) / 2: one acos, as the zenith angle took.
+    const double t = std::acos(std::clamp(2.0 * mu - 1.0, -1.0, 1.0)) / std::numbers::pi * (grid - 1);
     const int i0 = std::min(static_cast<int>(t), grid - 2);
     Stencil s;
     catmull_rom(t - i0, s.w);
-    for (int k = 0; k < 4; ++k) s.idx[k] = std::clamp(i0 - 1 + k, 0, grid - 1);
+    for (int k = 0; k < 4; ++k) {
+        const int j = i0 - 1 + k;
+        s.idx[k] = j > grid - 1 ? 2 * (grid - 1) - j : std::max(j, 0);
+    }
     return s;
 }
 
@@ -432,7 +446,7 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
     // doubles, 14 MB at "reference", where keeping all 41 of the visible held 590 MB. The samples
     // are summed in order, whatever the thread count.
     std::vector<double> mu(static_cast<std::size_t>(e));
-    for (int a = 0; a < e; ++a) mu[a] = std::cos(0.5 * std::numbers::pi * a / (e - 1));
+    for (int a = 0; a < e; ++a) mu[a] = zenith_grid_cosine(a, e);
     const int cpus = available_cpus();
     const std::size_t chunk = 2 * static_cast<std::size_t>(cpus);
     for (std::size_t first = 0; first < which.size(); first += chunk) {
@@ -547,11 +561,11 @@ void for_each_spectral_fill(const SolvedMaterial& material, const std::function<
 
 namespace {
 
-// What a cell's value needs of its two directions: the zenith angles (the grid's stencils), their
-// cosines, and the cosine of the azimuth between them (cos(m phi) by recurrence, the single
-// scattering and the lobe need nothing else of phi).
+// What a cell's value needs of its two directions: the cosines of the zenith angles (the grid's
+// stencils, the single scattering, the lobe) and of the azimuth between them (cos(m phi) by
+// recurrence; nothing else needs phi).
 struct CellDirections {
-    double theta_i, theta_o, mu_i, mu_o, cos_phi;
+    double mu_i, mu_o, cos_phi;
 };
 
 Rgb cell_value(const FillInputs& in, const CellDirections& d) {
@@ -564,7 +578,7 @@ Rgb cell_value(const FillInputs& in, const CellDirections& d) {
     double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
     const int mp = padded_orders(in.orders);
     Stencil so{}, si{};
-    if (in.orders > 0) so = stencil(d.theta_o, e), si = stencil(d.theta_i, e);
+    if (in.orders > 0) so = stencil(mu_o, e), si = stencil(mu_i, e);
     const auto orders = [&]<int C> { // C channels per order
         constexpr int block = C * fill_order_block;
         for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
@@ -608,19 +622,17 @@ CellDirections cell_directions(const formats::Vec3& wi, const formats::Vec3& wo)
     const double mu_i = std::clamp(wi.z, -1.0, 1.0), mu_o = std::clamp(wo.z, -1.0, 1.0);
     const double horizontal = std::sqrt((wi.x * wi.x + wi.y * wi.y) * (wo.x * wo.x + wo.y * wo.y));
     const double cos_phi = horizontal > 0.0 ? std::clamp((wi.x * wo.x + wi.y * wo.y) / horizontal, -1.0, 1.0) : 1.0;
-    return {std::acos(mu_i), std::acos(mu_o), mu_i, mu_o, cos_phi};
+    return {mu_i, mu_o, cos_phi};
 }
 
 } // namespace
 
 Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi) {
-    return cell_value(in, {theta_i, theta_o, std::cos(theta_i), std::cos(theta_o), std::cos(phi)});
+    return cell_value(in, {std::cos(theta_i), std::cos(theta_o), std::cos(phi)});
 }
 
 Rgb fill_value_from_cosines(const FillInputs& in, double mu_i, double mu_o, double cos_phi) {
-    const bool angles = in.orders > 0;
-    return cell_value(in, {angles ? std::acos(std::clamp(mu_i, -1.0, 1.0)) : 0.0,
-                           angles ? std::acos(std::clamp(mu_o, -1.0, 1.0)) : 0.0, mu_i, mu_o, cos_phi});
+    return cell_value(in, {mu_i, mu_o, cos_phi});
 }
 
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {

@@ -29,8 +29,17 @@ constexpr int padded_orders(int orders) {
     return (orders + fill_order_block - 1) / fill_order_block * fill_order_block;
 }
 
+/// The cosine of zenith node a of a fill's grid of `grid` nodes, a = 0 (the normal) .. grid - 1 (the
+/// horizon): the nodes are uniform in the angle v = acos(sqrt(mu)), mu = cos^2 v (docs/physics.md,
+/// "The tables' zenith grid"). Near the horizon the BRDFs here are smooth in mu (the Fresnel
+/// transmission is linear in it, Chandrasekhar's H functions go as mu log mu), so even in v about
+/// 90 degrees, which the cubic follows with a ghost node reflected there; in the zenith angle
+/// itself they have a corner at the horizon (cells within 0.5 degrees of it erred by up to 50 %).
+/// Near the normal v is theta / sqrt(2).
+double zenith_grid_cosine(int a, int grid);
+
 struct FillInputs {
-    int grid = 0;   ///< E: zenith angles theta_a = a / (E - 1) * 90 degrees, a = 0 .. E - 1
+    int grid = 0;   ///< E: zenith nodes of cosine zenith_grid_cosine(a, E), a = 0 .. E - 1
     int orders = 0; ///< M
     /// C: 3 (red, green, blue), or 1 when every sample's colour weight is grey (an analytic grey
     /// medium): then fourier and phase hold one value where they hold three, and the table's three
@@ -97,8 +106,7 @@ void for_each_spectral_fill(const SolvedMaterial& material, const std::function<
 /// BRDF of one direction triple (radians) from the fill inputs: the per-cell computation.
 Rgb fill_value(const FillInputs& in, double theta_i, double theta_o, double phi);
 /// The same from the cosines of the zenith angles and of the azimuth between the directions: what
-/// the single scattering and a lobe take; only the orders' zenith grid needs the angles (acos, and
-/// none when there are no orders, as for a lobe alone).
+/// the orders' zenith grid, the single scattering and a lobe take.
 Rgb fill_value_from_cosines(const FillInputs& in, double mu_i, double mu_o, double cos_phi);
 
 /// Every cell, on `threads` CPU threads (the C++ reference of the table-fill kernel).

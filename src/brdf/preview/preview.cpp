@@ -40,7 +40,7 @@ MirrorFunction lobe_albedo(const model::SolvedMaterial& m) {
 
 // The Fourier grid of the body's interpolant for a tabulated render. The render samples the body
 // on cell-centred zenith angles 90 / theta_nodes degrees apart (3.75 at the default 24) and
-// interpolates trilinearly: preview_zenith_grid (2 degrees apart) is finer than that. A finer
+// interpolates trilinearly: preview_zenith_grid (about 2 degrees apart) is finer than that. A finer
 // render grid, or a render that evaluates the body at every sample (theta_nodes 0), keeps the
 // table's grid.
 int body_grid(const RenderOptions& options) {

@@ -12,11 +12,11 @@
 namespace brdf::preview {
 
 /// The zenith angles of the Fourier grid (model::prepare_fill) that previews draw a spec's body
-/// from: the draft tables' grid, 2 degrees apart, at about a third of the cost of the default
-/// tables' 91. At the render's nodes it is within 3.2e-4 of the table grid below 88 degrees and
-/// 5.5e-3 at the grazing corner (PipelineTable.PreviewGridAgreesWithTheTableGridAtTheRenderNodes);
-/// a lobe plot's curves within 1.4e-4 of their peak below 88 degrees
-/// (PipelineTable.LobesFromThePreviewGridMatchTheTableGrid).
+/// from: the draft tables' grid (about 2 degrees apart, model::zenith_grid_cosine), at about a
+/// third of the cost of the default tables' 91. At the render's nodes it is within 1.5e-4 of the
+/// table grid below 88 degrees and 4.2e-4 at the grazing corner
+/// (PipelineTable.PreviewGridAgreesWithTheTableGridAtTheRenderNodes); a lobe plot's curves within
+/// 1.5e-4 of their peak up to the horizon (PipelineTable.LobesFromThePreviewGridMatchTheTableGrid).
 inline constexpr int preview_zenith_grid = 46;
 
 /// render_sphere of the material's BRDF with `options`: with surface "smooth" its mirror, with a
