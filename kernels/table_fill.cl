@@ -32,13 +32,14 @@ static void catmull_rom(double f, double w[4]) {
 }
 
 // Catmull-Rom taps and weights along one zenith axis of the grid (table_fill.cpp: stencil).
-static void stencil(double mu, int grid, int idx[4], double w[4]) {
+static void stencil(double mu, int grid, int idx[4], double w[4], int ghost[4]) {
     const double t = acos(clamp_ref(2.0 * mu - 1.0, -1.0, 1.0)) / TF_PI * (grid - 1);
     const int i0 = min((int)t, grid - 2);
     catmull_rom(t - i0, w);
     for (int k = 0; k < 4; ++k) {
         const int j = i0 - 1 + k;
-        idx[k] = j > grid - 1 ? 2 * (grid - 1) - j : max(j, 0);
+        idx[k] = j > grid - 1 ? 2 * (grid - 1) - j : (j < 0 ? -j : j);
+        ghost[k] = j < 0;
     }
 }
 
@@ -124,25 +125,29 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
     double out0 = 0.0, out1 = 0.0, out2 = 0.0;
     if (mu_i > 0.0 && mu_o > 0.0) {
         const int e = p.grid;
-        int so_idx[4], si_idx[4];
+        int so_idx[4], si_idx[4], so_g[4], si_g[4];
         double so_w[4], si_w[4];
-        stencil(mu_o, e, so_idx, so_w);
-        stencil(mu_i, e, si_idx, si_w);
+        stencil(mu_o, e, so_idx, so_w, so_g);
+        stencil(mu_i, e, si_idx, si_w, si_g);
         double cm_prev = c1, cm = 1.0; // cos(-phi) = cos(phi), cos(0)
         __global const double* fourier = data + p.fourier_offset;
         const int mp = (p.orders + TF_ORDER_BLOCK - 1) / TF_ORDER_BLOCK * TF_ORDER_BLOCK;
         // A grey table: one channel, one double8 per block, copied to all three.
         for (int m0 = 0; p.channels == 1 && m0 < p.orders; m0 += TF_ORDER_BLOCK) {
-            double8 v0 = (double8)(0.0);
+            // table_fill.cpp: cell_value (acc and mirrored).
+            double8 v0 = (double8)(0.0), g0 = (double8)(0.0);
             for (int a = 0; a < 4; ++a)
                 for (int b = 0; b < 4; ++b) {
                     const double w = so_w[a] * si_w[b];
-                    v0 += w * vload8(0, fourier + (((long)so_idx[a] * e + si_idx[b]) * mp + m0));
+                    const double8 t0 = w * vload8(0, fourier + (((long)so_idx[a] * e + si_idx[b]) * mp + m0));
+                    v0 += t0;
+                    if (so_g[a] != si_g[b]) g0 += t0;
                 }
-            double acc[TF_ORDER_BLOCK];
+            double acc[TF_ORDER_BLOCK], mirrored[TF_ORDER_BLOCK];
             vstore8(v0, 0, acc);
+            vstore8(g0, 0, mirrored);
             for (int j = 0; j < TF_ORDER_BLOCK; ++j) {
-                out0 += acc[j] * cm;
+                out0 += (j % 2 == 1 ? acc[j] - 2.0 * mirrored[j] : acc[j]) * cm;
                 const double next = 2.0 * c1 * cm - cm_prev;
                 cm_prev = cm;
                 cm = next;
@@ -154,22 +159,33 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             // k: PoCL then vectorises within the work item (contiguous taps) instead of across work
             // items, whose taps lie apart (a third of the time of the scalar loop, same values).
             double8 v0 = (double8)(0.0), v1 = (double8)(0.0), v2 = (double8)(0.0);
+            double8 g0 = (double8)(0.0), g1 = (double8)(0.0), g2 = (double8)(0.0);
             for (int a = 0; a < 4; ++a)
                 for (int b = 0; b < 4; ++b) {
                     const double w = so_w[a] * si_w[b];
                     __global const double* f = fourier + (((long)so_idx[a] * e + si_idx[b]) * mp + m0) * 3;
-                    v0 += w * vload8(0, f);
-                    v1 += w * vload8(1, f);
-                    v2 += w * vload8(2, f);
+                    const double8 t0 = w * vload8(0, f), t1 = w * vload8(1, f), t2 = w * vload8(2, f);
+                    v0 += t0;
+                    v1 += t1;
+                    v2 += t2;
+                    if (so_g[a] != si_g[b]) {
+                        g0 += t0;
+                        g1 += t1;
+                        g2 += t2;
+                    }
                 }
-            double acc[3 * TF_ORDER_BLOCK];
+            double acc[3 * TF_ORDER_BLOCK], mirrored[3 * TF_ORDER_BLOCK];
             vstore8(v0, 0, acc);
             vstore8(v1, 1, acc);
             vstore8(v2, 2, acc);
+            vstore8(g0, 0, mirrored);
+            vstore8(g1, 1, mirrored);
+            vstore8(g2, 2, mirrored);
             for (int j = 0; j < TF_ORDER_BLOCK; ++j) {
-                out0 += acc[3 * j] * cm;
-                out1 += acc[3 * j + 1] * cm;
-                out2 += acc[3 * j + 2] * cm;
+                const int odd = j % 2 == 1;
+                out0 += (odd ? acc[3 * j] - 2.0 * mirrored[3 * j] : acc[3 * j]) * cm;
+                out1 += (odd ? acc[3 * j + 1] - 2.0 * mirrored[3 * j + 1] : acc[3 * j + 1]) * cm;
+                out2 += (odd ? acc[3 * j + 2] - 2.0 * mirrored[3 * j + 2] : acc[3 * j + 2]) * cm;
                 const double next = 2.0 * c1 * cm - cm_prev;
                 cm_prev = cm;
                 cm = next;

@@ -53,11 +53,13 @@ double zenith_grid_cosine(int a, int grid) {
 namespace {
 
 // Taps and weights along one zenith axis of the grid (nodes uniform in v = acos(sqrt(mu)), see
-// zenith_grid_cosine): at the normal the first node stands in for the tap before it, at the horizon
-// the tap beyond it is the node mirrored there (mu is even in v about 90 degrees).
+// zenith_grid_cosine). The taps beyond either end are the nodes mirrored there: at the horizon mu
+// is even in v; at the normal order m goes as sin^m, so its mirror image is (-1)^m times the node
+// (`ghost`: the tap is node 1 mirrored through the normal).
 struct Stencil {
     int idx[4];
     double w[4];
+    bool ghost[4];
 };
 
 Stencil stencil(double mu, int grid) {
@@ -68,7 +70,8 @@ Stencil stencil(double mu, int grid) {
     catmull_rom(t - i0, s.w);
     for (int k = 0; k < 4; ++k) {
         const int j = i0 - 1 + k;
-        s.idx[k] = j > grid - 1 ? 2 * (grid - 1) - j : std::max(j, 0);
+        s.idx[k] = j > grid - 1 ? 2 * (grid - 1) - j : (j < 0 ? -j : j);
+        s.ghost[k] = j < 0;
     }
     return s;
 }
@@ -582,16 +585,23 @@ Rgb cell_value(const FillInputs& in, const CellDirections& d) {
     const auto orders = [&]<int C> { // C channels per order
         constexpr int block = C * fill_order_block;
         for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
-            double acc[block] = {};
+            // acc: every tap as its node; mirrored: the taps mirrored through the normal in one
+            // direction only, whose odd orders (j odd: m0 is even) count with the opposite sign.
+            double acc[block] = {}, mirrored[block] = {};
             for (int a = 0; a < 4; ++a)
                 for (int b = 0; b < 4; ++b) {
                     const double w = so.w[a] * si.w[b];
                     const double* f =
                         &in.fourier[((static_cast<std::size_t>(so.idx[a]) * e + si.idx[b]) * mp + m0) * C];
                     for (int k = 0; k < block; ++k) acc[k] += w * f[k];
+                    if (so.ghost[a] != si.ghost[b])
+                        for (int k = 0; k < block; ++k) mirrored[k] += w * f[k];
                 }
             for (int j = 0; j < fill_order_block; ++j) {
-                for (int c = 0; c < C; ++c) out[c] += acc[C * j + c] * cm;
+                for (int c = 0; c < C; ++c) {
+                    const double v = j % 2 == 1 ? acc[C * j + c] - 2.0 * mirrored[C * j + c] : acc[C * j + c];
+                    out[c] += v * cm;
+                }
                 const double next = 2.0 * c1 * cm - cm_prev;
                 cm_prev = cm;
                 cm = next;

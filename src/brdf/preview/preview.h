@@ -13,10 +13,10 @@ namespace brdf::preview {
 
 /// The zenith angles of the Fourier grid (model::prepare_fill) that previews draw a spec's body
 /// from: the draft tables' grid (about 2 degrees apart, model::zenith_grid_cosine), at about a
-/// third of the cost of the default tables' 91. At the render's nodes it is within 1.5e-4 of the
+/// third of the cost of the default tables' 91. At the render's nodes it is within 8.6e-5 of the
 /// table grid below 88 degrees and 4.2e-4 at the grazing corner
 /// (PipelineTable.PreviewGridAgreesWithTheTableGridAtTheRenderNodes); a lobe plot's curves within
-/// 1.5e-4 of their peak up to the horizon (PipelineTable.LobesFromThePreviewGridMatchTheTableGrid).
+/// 5.4e-5 of their peak up to the horizon (PipelineTable.LobesFromThePreviewGridMatchTheTableGrid).
 inline constexpr int preview_zenith_grid = 46;
 
 /// render_sphere of the material's BRDF with `options`: with surface "smooth" its mirror, with a
