@@ -40,8 +40,9 @@ struct Source {
     std::optional<formats::BrdfTable> table;
     /// Set by use_interpolant(): brdf() of a spec then evaluates the tables' interpolant
     /// (model::fill_value: each Fourier order solved on the table's zenith grid, Catmull-Rom in
-    /// theta_i and theta_o; the single scattering and a rough top's lobe exact per direction) at
-    /// about a microsecond per direction instead of a solve per direction off the nodes.
+    /// acos(sqrt(mu)) of both directions; the single scattering and a rough top's lobe exact per
+    /// direction) at about a microsecond per direction instead of a solve per direction off the
+    /// nodes.
     std::optional<model::FillInputs> interpolant;
 
     /// For commands that evaluate many directions (eval, lobes): a spec's brdf() through the

@@ -4,9 +4,10 @@
 // The BRDF splits into the multiply scattered part, smooth in every angle, and the single
 // scattering with the full phase function, which carries any sharp forward peak (TMS, Nakajima and
 // Tanaka 1988). The smooth part is evaluated exactly (Nystrom) on a grid of zenith angles per
-// Fourier order, combined into RGB there, and interpolated per cell (Catmull-Rom in theta_i and
-// theta_o) before the Fourier sum in phi. The single scattering is evaluated per cell and per
-// wavelength from a fine table of the phase function, with each wavelength's own refraction.
+// Fourier order, combined into RGB there, and interpolated per cell (Catmull-Rom in
+// v = acos(sqrt(mu)) of both directions, zenith_grid_cosine) before the Fourier sum in phi. The
+// single scattering is evaluated per cell and per wavelength from a fine table of the phase
+// function, with each wavelength's own refraction.
 // Under a rough top the first-surface reflection lobe (Reflection::surface_lobe) is added per cell
 // in closed form, never Fourier expanded: in air it is D(h) G(wi, wo) F(wi.h; n) / (4 mu_i mu_o)
 // (Walter et al. 2007, eq. 20), and only the facet Fresnel factor depends on the wavelength, so it
@@ -35,7 +36,8 @@ constexpr int padded_orders(int orders) {
 /// transmission is linear in it, Chandrasekhar's H functions go as mu log mu), so even in v about
 /// 90 degrees, which the cubic follows with a ghost node reflected there; in the zenith angle
 /// itself they have a corner at the horizon (cells within 0.5 degrees of it erred by up to 50 %).
-/// Near the normal v is theta / sqrt(2).
+/// Near the normal v is theta / sqrt(2), and order m goes as sin^m: the tap before the first node is
+/// node 1 mirrored, times (-1)^m.
 double zenith_grid_cosine(int a, int grid);
 
 struct FillInputs {

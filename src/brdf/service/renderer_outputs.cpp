@@ -176,7 +176,7 @@ void write_rgl_output(const std::filesystem::path& path, const model::SolvedMate
     const std::filesystem::path companion = rgl_rgb_companion_path(path);
     if (!rgl_output_spectral(solved)) {
         // An analytic medium is given per RGB channel: an RGB file only. The table fill's interpolant
-        // (Catmull-Rom in the zenith angles of the order grid, exact Fourier sum in phi, the single
+        // (Catmull-Rom on the order grid's zenith nodes, exact Fourier sum in phi, the single
         // scattering per direction): microseconds per direction, where SolvedMaterial::brdf would
         // solve a Nystrom system per direction and wavelength.
         const formats::RglBrdfCallback brdf = [&](const formats::Vec3& wi, const formats::Vec3& wo,
