@@ -1,4 +1,5 @@
 #include <brdf/mie/ensemble_cache.h>
+#include <brdf/mie/phase_function.h>
 
 #include <brdf/core/error.h>
 
@@ -111,6 +112,10 @@ TEST(EnsembleCache, OnDiskARepeatInALaterRunIsLoadedBitForBit) {
         return out;
     };
     ASSERT_EQ(files().size(), 2u);
+    // Each file holds its key, and the key names the kernel set that computed it: the sets round
+    // differently (phase_function.h), so a folder shared by machines never mixes them.
+    for (const auto& f : files())
+        EXPECT_NE(test::read_file(f).find(std::string("\nkernels ") + series_kernels() + "\n"), std::string::npos);
 
     EnsembleCache later(std::size_t{16} << 20, dir.path());
     const auto loaded = later.get(rutile, pmma, 550.0, sizes, options);

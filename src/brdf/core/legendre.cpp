@@ -116,30 +116,44 @@ double legendre_series(std::span<const double> beta, double x) {
     return b1;
 }
 
+// Compiled for AVX-512, AVX2 and the baseline, picked at run time. The points go eight to a vector
+// (GCC vector extensions, lowered to whatever registers the clone has): a plain loop over the points
+// was not vectorised (GCC interchanged it with the loop over l). The phase tables of a big sphere's
+// series, thousands of terms at thousands of points, took a fifth of the time. Element-wise operations
+// in the scalar sum's order and no contraction (cmake/BrdfWarnings.cmake): every clone, and the
+// scalar legendre_series above, give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
 void legendre_series(std::span<const double> beta, std::span<const double> x, std::span<double> out) {
     if (out.size() < x.size())
         throw InternalError(cat("legendre_series: ", out.size(), " outputs for ", x.size(), " points"));
-    // Points in blocks whose two recurrence rows stay in the L1 cache; per point the operations of
-    // the scalar Clenshaw sum above, in its order.
-    constexpr std::size_t block = 256;
-    double b1[block], b2[block];
+    typedef double Vec8 __attribute__((vector_size(64)));
+    // Points in blocks whose two recurrence rows stay in the L1 cache.
+    constexpr std::size_t lanes = 8, vectors = 32, block = lanes * vectors;
+    Vec8 xs[vectors], b1[vectors], b2[vectors];
     for (std::size_t first = 0; first < x.size(); first += block) {
         const std::size_t count = std::min(block, x.size() - first);
-        const double* xs = x.data() + first;
-        std::fill(b1, b1 + count, 0.0);
-        std::fill(b2, b2 + count, 0.0);
+        const std::size_t used = (count + lanes - 1) / lanes;
+        for (std::size_t v = 0; v < used; ++v)
+            for (std::size_t k = 0; k < lanes; ++k) {
+                const std::size_t j = v * lanes + k;
+                xs[v][k] = j < count ? x[first + j] : 0.0;
+                b1[v][k] = 0.0;
+                b2[v][k] = 0.0;
+            }
         for (std::size_t i = beta.size(); i-- > 0;) {
             const double l = static_cast<double>(i);
             const double a = (2.0 * l + 1.0) / (l + 1.0);
             const double betac = (l + 1.0) / (l + 2.0);
             const double bl = beta[i];
-            for (std::size_t k = 0; k < count; ++k) {
-                const double b0 = bl + a * xs[k] * b1[k] - betac * b2[k];
-                b2[k] = b1[k];
-                b1[k] = b0;
+            for (std::size_t v = 0; v < used; ++v) {
+                const Vec8 b0 = bl + a * xs[v] * b1[v] - betac * b2[v];
+                b2[v] = b1[v];
+                b1[v] = b0;
             }
         }
-        std::copy(b1, b1 + count, out.begin() + static_cast<std::ptrdiff_t>(first));
+        for (std::size_t j = 0; j < count; ++j) out[first + j] = b1[j / lanes][j % lanes];
     }
 }
 

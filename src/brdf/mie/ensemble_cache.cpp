@@ -1,4 +1,5 @@
 #include <brdf/mie/ensemble_cache.h>
+#include <brdf/mie/phase_function.h>
 
 #include <bit>
 #include <cstdio>
@@ -18,10 +19,13 @@ namespace {
 constexpr std::string_view disk_magic = "BRDFMIE1";
 
 // The request (the in-memory cache's key: every input of mie::ensemble) as text, each number exact
-// (hexadecimal floating point), with the build: one list of the inputs for both caches.
+// (hexadecimal floating point), with the build and the CPU's kernel set (phase_function.h: FMA or
+// not rounds differently): one list of the inputs for both caches.
 template <class Key>
 std::string disk_key(const Key& request) {
-    std::string key = "brdf-mie-ensemble 2\nbuild " BRDF_MIE_BUILD_ID "\n";
+    std::string key = "brdf-mie-ensemble 2\nbuild " BRDF_MIE_BUILD_ID "\nkernels ";
+    key += series_kernels();
+    key += '\n';
     std::apply(
         [&key](const auto&... field) {
             const auto add = [&key](double v) {

@@ -22,6 +22,11 @@
 
 namespace brdf::mie {
 
+/// Which compiled set of the series and projection kernels this CPU runs ("avx512-fma", "avx2-fma"
+/// or "baseline"; the environment variable BRDF_MIE_KERNELS may name a narrower one): the sets
+/// round differently (FMA or not), so whatever stores results across runs keys them by it.
+const char* series_kernels();
+
 class PhaseFunctionAccumulator {
 public:
     /// Prepares the angular rule for series of up to `max_terms` terms (2 max_terms + 2 nodes).

@@ -750,10 +750,8 @@ void fit_into_gamut(SolvedMaterial& m) {
     if (!m.single_only.empty()) {
         const auto add_single = [&](const rte::StackSetup& setup, const Rgb& weight) {
             in.weights.push_back(weight);
-            for (double mi : probe_mus)
-                for (double mo : probe_mus)
-                    for (double phi : probe_phis)
-                        in.brdf.push_back(rte::single_scattering(setup, mo, mi, phi) * std::numbers::inv_pi);
+            for (double v : rte::single_scattering_grid(setup, probe_mus, probe_phis)) // brdf_grid's order
+                in.brdf.push_back(v * std::numbers::inv_pi);
             in.brdf.insert(in.brdf.end(), 2 * reflectance_mus.size(), 0.0); // (albedo, mirror) pairs
             in.reflectance.insert(in.reflectance.end(), reflectance_mus.size(), 0.0);
         };

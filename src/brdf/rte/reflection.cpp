@@ -453,19 +453,41 @@ ScatteringLayer scattering_layer(const StackSetup& setup, int k) {
 }
 
 double single_scattering(const StackSetup& setup, double mu_o, double mu_i, double phi) {
-    if (setup.stack.top == Top::Rough) return 0.0;
-    mu_o = clamp_mu(mu_o);
-    mu_i = clamp_mu(mu_i);
-    double sum = 0.0;
+    const double mu[2] = {mu_o, mu_i};
+    // The grid's (incident 1, outgoing 0) entry; the others cost no Legendre series.
+    return single_scattering_grid(setup, mu, std::span<const double>(&phi, 1))[2];
+}
+
+std::vector<double> single_scattering_grid(const StackSetup& setup, std::span<const double> mu,
+                                           std::span<const double> phi) {
+    const std::size_t ne = mu.size(), np = phi.size();
+    std::vector<double> out(ne * ne * np, 0.0);
+    if (setup.stack.top == Top::Rough) return out;
+    std::vector<double> cos_phi(np), u(ne), s(ne), path(ne), cos_scatter(out.size()), p(out.size());
+    for (std::size_t q = 0; q < np; ++q) cos_phi[q] = std::cos(phi[q]);
     for (int k = 0; k < static_cast<int>(setup.layers.size()); ++k) {
         const ScatteringLayer l = scattering_layer(setup, k);
-        const double u_o = inside_layer(setup, k, mu_o), u_i = inside_layer(setup, k, mu_i);
-        const double s_o = std::sqrt(std::max(0.0, 1.0 - u_o * u_o)), s_i = std::sqrt(std::max(0.0, 1.0 - u_i * u_i));
-        const double cos_scatter = std::clamp(-u_o * u_i - s_o * s_i * std::cos(phi), -1.0, 1.0);
-        sum += path_factor(setup, k, mu_o) * path_factor(setup, k, mu_i) * 0.25 * l.albedo *
-               phase_value(*l.beta, cos_scatter) / (u_o + u_i) * slab_factor(l.tau, u_o, u_i);
+        for (std::size_t e = 0; e < ne; ++e) {
+            const double m = clamp_mu(mu[e]);
+            u[e] = inside_layer(setup, k, m);
+            s[e] = std::sqrt(std::max(0.0, 1.0 - u[e] * u[e]));
+            path[e] = path_factor(setup, k, m);
+        }
+        for (std::size_t i = 0; i < ne; ++i)
+            for (std::size_t o = 0; o < ne; ++o)
+                for (std::size_t q = 0; q < np; ++q)
+                    cos_scatter[(i * ne + o) * np + q] =
+                        std::clamp(-u[o] * u[i] - s[o] * s[i] * cos_phi[q], -1.0, 1.0);
+        // One pass of the series over every direction: a big sphere's runs to thousands of terms,
+        // summed eight points at a time instead of one Clenshaw chain per direction.
+        phase_values(*l.beta, cos_scatter, p);
+        for (std::size_t i = 0; i < ne; ++i)
+            for (std::size_t o = 0; o < ne; ++o) {
+                const double f = path[o] * path[i] * 0.25 * l.albedo / (u[o] + u[i]) * slab_factor(l.tau, u[o], u[i]);
+                for (std::size_t q = 0; q < np; ++q) out[(i * ne + o) * np + q] += f * p[(i * ne + o) * np + q];
+            }
     }
-    return sum;
+    return out;
 }
 
 bool Reflection::interpolated_orders(std::span<const double> mu, int threads,
@@ -613,7 +635,7 @@ std::vector<double> Reflection::brdf_grid(std::span<const double> mu, std::span<
                                           bool with_lobe) const {
     const OrderGrid grid = order_grid(mu);
     const std::size_t ne = grid.mu.size(), np = phi.size();
-    std::vector<double> out(ne * ne * np);
+    std::vector<double> out = single_scattering_grid(m_setup, grid.mu, phi);
     for (std::size_t p = 0; p < np; ++p) {
         std::vector<double> c(static_cast<std::size_t>(m_setup.orders)); // (2 - delta_m0) (-1)^m cos(m phi)
         for (int m = 0; m < m_setup.orders; ++m)
@@ -622,7 +644,7 @@ std::vector<double> Reflection::brdf_grid(std::span<const double> mu, std::span<
             for (std::size_t o = 0; o < ne; ++o) {
                 double sum = 0.0;
                 for (int m = 0; m < m_setup.orders; ++m) sum += c[m] * grid.orders[m](o, i);
-                sum += single_scattering(grid.mu[o], grid.mu[i], phi[p]);
+                sum += out[(i * ne + o) * np + p];
                 out[(i * ne + o) * np + p] = std::max(0.0, sum) * std::numbers::inv_pi +
                                              (with_lobe ? surface_lobe(grid.mu[i], grid.mu[o], phi[p]) : 0.0);
             }

@@ -87,6 +87,10 @@ double path_factor(const StackSetup& setup, int k, double mu_air);
 /// top (whose orders carry it). It needs the stack's set-up only, not its solution: a wavelength
 /// whose multiple scattering is interpolated from its neighbours' gets its own exactly.
 double single_scattering(const StackSetup& setup, double mu_o, double mu_i, double phi);
+/// single_scattering at every pair of the cosines in air `mu` and every azimuth: entry
+/// (i ne + o) np + p is (mu_o = mu[o], mu_i = mu[i], phi[p]), as in Reflection::brdf_grid.
+std::vector<double> single_scattering_grid(const StackSetup& setup, std::span<const double> mu,
+                                           std::span<const double> phi);
 
 class Reflection {
 public:
