@@ -16,6 +16,8 @@ endif()
 # fuses a * b + c into one FMA wherever the target has it, in ISO C++ mode too, so the functions
 # compiled for AVX2 or AVX-512 (target_clones) would round differently from the baseline build and
 # from the OpenCL kernels (FP_CONTRACT OFF); -ffp-contract=off keeps every clone bit for bit the same.
+# One file is the exception, on purpose: Mie's series kernels (src/brdf/mie/phase_function.cpp) fuse
+# where the CPU has FMA, have no OpenCL twin, and the Mie disk cache keys its files by the kernel set.
 add_library(brdf_options INTERFACE)
 target_link_libraries(brdf_options INTERFACE brdf_warnings)
 target_compile_options(brdf_options INTERFACE $<$<CXX_COMPILER_ID:GNU,Clang>:-ffp-contract=off>)
