@@ -18,7 +18,7 @@ namespace {
 //   S1(-mu) = sum (-1)^(n-1) c_n (a_n pi_n - b_n tau_n),  S2(-mu) = sum (-1)^n c_n (a_n tau_n - b_n pi_n).
 // Keeping the sums in registers instead of arrays (one pass over memory per order) made this three
 // times faster.
-// GCC/Clang vector extensions: four (eight) doubles, lowered to whatever registers the target has.
+// GCC/Clang vector extensions: two, four or eight doubles, lowered to whatever registers the target has.
 typedef double Vec2 __attribute__((vector_size(16)));
 typedef double Vec4 __attribute__((vector_size(32)));
 typedef double Vec8 __attribute__((vector_size(64)));
@@ -99,9 +99,6 @@ enum class KernelSet { baseline, avx2_fma, avx512_fma };
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define BRDF_X86_DISPATCH 1
-#define BRDF_TARGET(features) __attribute__((target(features)))
-#else
-#define BRDF_TARGET(features)
 #endif
 
 /// The widest set this CPU runs, or a narrower one that BRDF_MIE_KERNELS names ("baseline",
@@ -129,13 +126,13 @@ void intensity_block2(const double* coef, int n_terms, const double* mu, double*
 }
 
 #ifdef BRDF_X86_DISPATCH
-BRDF_TARGET("avx2,fma")
+__attribute__((target("avx2,fma")))
 void intensity_block4_avx2(const double* coef, int n_terms, const double* mu, double* plus,
                            double* minus) {
     intensity_kernel<Vec4, 4>(coef, n_terms, mu, plus, minus);
 }
 
-BRDF_TARGET("avx512f,fma")
+__attribute__((target("avx512f,fma")))
 void intensity_block8(const double* coef, int n_terms, const double* mu, double* plus,
                       double* minus) {
     intensity_kernel<Vec8, 8>(coef, n_terms, mu, plus, minus);
@@ -181,13 +178,13 @@ void projection_block(const double* rec, int orders, const double* mu, const dou
 }
 
 #ifdef BRDF_X86_DISPATCH
-BRDF_TARGET("avx2,fma")
+__attribute__((target("avx2,fma")))
 void projection_block_avx2(const double* rec, int orders, const double* mu, const double* even,
                            const double* odd, double* sums) {
     projection_kernel<Vec8>(rec, orders, mu, even, odd, sums);
 }
 
-BRDF_TARGET("avx512f,fma")
+__attribute__((target("avx512f,fma")))
 void projection_block_avx512(const double* rec, int orders, const double* mu, const double* even,
                              const double* odd, double* sums) {
     projection_kernel<Vec8>(rec, orders, mu, even, odd, sums);
