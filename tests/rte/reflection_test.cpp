@@ -265,6 +265,26 @@ TEST(Reciprocity, BrdfIsSymmetric) {
     }
 }
 
+// The single scattering of a grid of directions (one pass of the Legendre series over all of them,
+// eight points at a time: Reflection::brdf_grid and the gamut fit's probes) is the per-direction
+// sum's, bit for bit, in every entry of the grid's layout, with and without an interface.
+TEST(SingleScattering, GridEqualsEveryDirection) {
+    const std::vector<double> mu{1.0, 0.7, 0.3, 0.05, 0.001}, phi{0.0, 1.2, std::numbers::pi};
+    for (double n : {1.0, 1.5}) {
+        const rte::Reflection r = solve_cpu({0.95, hg_beta(0.7, 300)}, 16, n);
+        const std::vector<double> grid = rte::single_scattering_grid(r.setup(), mu, phi);
+        ASSERT_EQ(grid.size(), mu.size() * mu.size() * phi.size());
+        for (std::size_t i = 0; i < mu.size(); ++i)
+            for (std::size_t o = 0; o < mu.size(); ++o)
+                for (std::size_t p = 0; p < phi.size(); ++p) {
+                    const double one = r.single_scattering(mu[o], mu[i], phi[p]);
+                    EXPECT_GT(one, 0.0);
+                    EXPECT_EQ(grid[(i * mu.size() + o) * phi.size() + p], one)
+                        << "mu_i " << mu[i] << " mu_o " << mu[o] << " phi " << phi[p] << " n " << n;
+                }
+    }
+}
+
 // The orders are independent: computed on several threads the grid is the same, bit for bit, each
 // order in its place.
 TEST(OrderGrid, SeveralThreadsGiveTheSameGrid) {

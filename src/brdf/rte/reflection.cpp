@@ -452,11 +452,41 @@ ScatteringLayer scattering_layer(const StackSetup& setup, int k) {
     return ScatteringLayer{&ls.layer.medium.beta, om / (1.0 - f * om), ls.tau, ls.index};
 }
 
+namespace {
+
+// One direction's direct path in layer k of a set-up stack: its cosine and sine there and its
+// factor A_k(mu) / n_k (path_factor).
+struct DirectPath {
+    double u = 0.0, s = 0.0, path = 0.0;
+};
+
+DirectPath direct_path(const StackSetup& setup, int k, double mu_air) {
+    const double mu = clamp_mu(mu_air);
+    const double u = inside_layer(setup, k, mu);
+    return {u, std::sqrt(std::max(0.0, 1.0 - u * u)), path_factor(setup, k, mu)};
+}
+
+double scattering_cosine(const DirectPath& o, const DirectPath& i, double cos_phi) {
+    return std::clamp(-o.u * i.u - o.s * i.s * cos_phi, -1.0, 1.0);
+}
+
+// Layer l's single scattering of the pair without the phase function's value.
+double single_factor(const ScatteringLayer& l, const DirectPath& o, const DirectPath& i) {
+    return o.path * i.path * 0.25 * l.albedo / (o.u + i.u) * slab_factor(l.tau, o.u, i.u);
+}
+
+} // namespace
+
 double single_scattering(const StackSetup& setup, double mu_o, double mu_i, double phi) {
-    const double mu[2] = {mu_o, mu_i};
-    // The grid's (incident 1, outgoing 0) entry: the other three ride in the same block of the
-    // series (eight points a pass), so this costs what one Clenshaw sum did.
-    return single_scattering_grid(setup, mu, std::span<const double>(&phi, 1))[2];
+    if (setup.stack.top == Top::Rough) return 0.0;
+    const double cos_phi = std::cos(phi);
+    double sum = 0.0;
+    for (int k = 0; k < static_cast<int>(setup.layers.size()); ++k) {
+        const ScatteringLayer l = scattering_layer(setup, k);
+        const DirectPath o = direct_path(setup, k, mu_o), i = direct_path(setup, k, mu_i);
+        sum += single_factor(l, o, i) * phase_value(*l.beta, scattering_cosine(o, i, cos_phi));
+    }
+    return sum;
 }
 
 std::vector<double> single_scattering_grid(const StackSetup& setup, std::span<const double> mu,
@@ -464,27 +494,23 @@ std::vector<double> single_scattering_grid(const StackSetup& setup, std::span<co
     const std::size_t ne = mu.size(), np = phi.size();
     std::vector<double> out(ne * ne * np, 0.0);
     if (setup.stack.top == Top::Rough) return out;
-    std::vector<double> cos_phi(np), u(ne), s(ne), path(ne), cos_scatter(out.size()), p(out.size());
+    std::vector<double> cos_phi(np), cos_scatter(out.size()), p(out.size());
+    std::vector<DirectPath> paths(ne);
     for (std::size_t q = 0; q < np; ++q) cos_phi[q] = std::cos(phi[q]);
     for (int k = 0; k < static_cast<int>(setup.layers.size()); ++k) {
         const ScatteringLayer l = scattering_layer(setup, k);
-        for (std::size_t e = 0; e < ne; ++e) {
-            const double m = clamp_mu(mu[e]);
-            u[e] = inside_layer(setup, k, m);
-            s[e] = std::sqrt(std::max(0.0, 1.0 - u[e] * u[e]));
-            path[e] = path_factor(setup, k, m);
-        }
+        for (std::size_t e = 0; e < ne; ++e) paths[e] = direct_path(setup, k, mu[e]);
         for (std::size_t i = 0; i < ne; ++i)
             for (std::size_t o = 0; o < ne; ++o)
                 for (std::size_t q = 0; q < np; ++q)
-                    cos_scatter[(i * ne + o) * np + q] =
-                        std::clamp(-u[o] * u[i] - s[o] * s[i] * cos_phi[q], -1.0, 1.0);
+                    cos_scatter[(i * ne + o) * np + q] = scattering_cosine(paths[o], paths[i], cos_phi[q]);
         // One pass of the series over every direction: a big sphere's runs to thousands of terms,
-        // summed eight points at a time instead of one Clenshaw chain per direction.
+        // summed eight points at a time instead of one Clenshaw chain per direction (the same
+        // values as single_scattering's).
         phase_values(*l.beta, cos_scatter, p);
         for (std::size_t i = 0; i < ne; ++i)
             for (std::size_t o = 0; o < ne; ++o) {
-                const double f = path[o] * path[i] * 0.25 * l.albedo / (u[o] + u[i]) * slab_factor(l.tau, u[o], u[i]);
+                const double f = single_factor(l, paths[o], paths[i]);
                 for (std::size_t q = 0; q < np; ++q) out[(i * ne + o) * np + q] += f * p[(i * ne + o) * np + q];
             }
     }
