@@ -77,6 +77,27 @@ void BM_OrderGrid(benchmark::State& state) {
 BENCHMARK(BM_OrderGrid)->DenseRange(0, 3)->ArgName("top")->Unit(benchmark::kMillisecond)->Repetitions(5)
     ->ReportAggregatesOnly(true);
 
+// The kernels alone at the "default" settings' tolerance (rough_kernel_tolerance of 1e-5: 1e-4) for
+// the gloss finish (GGX alpha 0.03, n 1.5), streams split at the critical cosine: args streams,
+// then 0 for the internal reflection (computed once per stack) or the air cosines' count (the
+// table's 91, the probes' 5; transmissions only). Counters: nodes (integrand evaluations).
+void BM_InterfaceKernels(benchmark::State& state) {
+    const int streams = static_cast<int>(state.range(0)), air_count = static_cast<int>(state.range(1));
+    const RoughInterface surface(1.5, RoughSurface{0.03, Microfacet::Ggx, Masking::HeightCorrelated});
+    const StreamPieces pieces = split_gauss_pieces(streams / 2, streams - streams / 2, surface.critical());
+    std::vector<double> air;
+    for (int a = 0; a < air_count; ++a) air.push_back(std::cos(0.5 * std::numbers::pi * a / air_count));
+    long long nodes = 0;
+    for (auto _ : state) {
+        const InterfaceKernels k = interface_kernels(surface, pieces, air, 34, 1e-4, air_count == 0);
+        nodes = k.quadrature.nodes;
+        benchmark::DoNotOptimize(&k);
+    }
+    state.counters["nodes"] = static_cast<double>(nodes);
+}
+BENCHMARK(BM_InterfaceKernels)->ArgsProduct({{24, 32, 48, 64}, {0, 5, 91}})->ArgNames({"streams", "air"})
+    ->Unit(benchmark::kMillisecond)->Repetitions(3)->ReportAggregatesOnly(true)->UseRealTime();
+
 } // namespace
 
 BENCHMARK_MAIN();

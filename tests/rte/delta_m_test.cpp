@@ -88,6 +88,47 @@ TEST(DeltaM, RefusesATruncationOrderBelowOne) {
     EXPECT_THROW(delta_m(Medium{0.5, test::hg_beta(0.5, 10)}, 0), InputError);
 }
 
+// The spread residual (what delta-M leaves out of the single scattering, seen through a Gaussian
+// spread of directions) against the difference of the phase function and delta-M's own output
+// (rte::delta_m: (1 - f) p' plus f times the forward delta), both spread, computed here term by term:
+// at 180 degrees (a point of its grid) and at most the largest over a grid 20 times finer.
+TEST(DeltaM, SpreadResidualIsThePhaseFunctionLessDeltaMsOwnOutput) {
+    const Medium medium{0.9, test::hg_beta(0.9, 400)};
+    for (const auto [first_dropped, sigma] : {std::pair{32, 0.009}, std::pair{48, 0.009}, std::pair{32, 0.045}}) {
+        SCOPED_TRACE(first_dropped);
+        const DeltaM d = delta_m(medium, first_dropped);
+        const int terms = static_cast<int>(std::ceil(std::sqrt(80.0) / sigma)) + 1;
+        std::vector<double> spread(terms), residual(terms);
+        for (int l = 0; l < terms; ++l) {
+            const double beta = l < static_cast<int>(medium.beta.size()) ? medium.beta[l] : 0.0;
+            const double kept = l < first_dropped ? (1.0 - d.f) * d.scaled.beta[l] : 0.0;
+            const double damping = std::exp(-0.5 * l * (l + 1.0) * sigma * sigma);
+            spread[l] = beta * damping;
+            residual[l] = (beta - kept - d.f * (2.0 * l + 1.0)) * damping;
+        }
+        const auto ratio = [&](double theta) {
+            return std::abs(phase_value(residual, std::cos(theta))) / phase_value(spread, std::cos(theta));
+        };
+        double finest = 0.0;
+        for (int a = 0; a <= 1800; ++a) finest = std::max(finest, ratio(0.5 * std::numbers::pi * (1.0 + a / 1800.0)));
+        const double got = spread_delta_m_residual(medium, first_dropped, sigma);
+        EXPECT_GE(got, ratio(std::numbers::pi) * (1.0 - 1e-9));
+        EXPECT_LE(got, finest * (1.0 + 1e-9));
+        EXPECT_GT(got, 0.0);
+    }
+}
+
+// It falls as more moments are kept and as the spread grows (a rough top's broader lobes average the
+// truncation's ringing out), and is 0 where delta-M truncates nothing.
+TEST(DeltaM, SpreadResidualFallsWithStreamsAndSpread) {
+    const Medium medium{1.0, test::hg_beta(0.9, 400)};
+    EXPECT_GT(spread_delta_m_residual(medium, 32, 0.009), spread_delta_m_residual(medium, 48, 0.009));
+    EXPECT_GT(spread_delta_m_residual(medium, 48, 0.009), spread_delta_m_residual(medium, 64, 0.009));
+    EXPECT_GT(spread_delta_m_residual(medium, 32, 0.009), 10.0 * spread_delta_m_residual(medium, 32, 0.12));
+    EXPECT_EQ(spread_delta_m_residual(Medium{0.9, test::hg_beta(0.7, 10)}, 10, 0.01), 0.0);
+    EXPECT_THROW(spread_delta_m_residual(medium, 32, 0.0), InputError);
+}
+
 Reflection solve(const Medium& medium, int streams) {
     ReflectionSettings settings;
     settings.streams = streams;

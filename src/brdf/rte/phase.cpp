@@ -4,6 +4,11 @@
 #include <brdf/core/legendre.h>
 #include <brdf/core/log.h>
 
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
 namespace brdf::rte {
 
 double phase_value(std::span<const double> beta, double cos_theta) { return legendre_series(beta, cos_theta); }
@@ -32,6 +37,34 @@ DeltaM delta_m(const Medium& medium, int first_dropped) {
     }
     out.scaled.beta[0] = 1.0; // exactly, whatever the rounding above
     return out;
+}
+
+double spread_delta_m_residual(const Medium& medium, int first_dropped, double sigma) {
+    if (!(sigma > 0.0)) throw InputError(cat("delta-M residual: spread must be > 0 (got ", sigma, ")"));
+    const double f = delta_m(medium, first_dropped).f;
+    const int size = static_cast<int>(medium.beta.size());
+    // The spread's factor falls below e^-40 at l = sqrt(80) / sigma: nothing beyond counts.
+    const double s = std::max(sigma, 2.5e-3);
+    const int terms = std::max(size, static_cast<int>(std::ceil(std::sqrt(80.0) / s)) + 1);
+    std::vector<double> spread(static_cast<std::size_t>(terms)), residual(static_cast<std::size_t>(terms), 0.0);
+    for (int l = 0; l < terms; ++l) {
+        const double beta = l < size ? medium.beta[l] : 0.0;
+        const double damping = std::exp(-0.5 * l * (l + 1.0) * s * s);
+        spread[l] = beta * damping;
+        if (l >= first_dropped) residual[l] = (beta - (2.0 * l + 1.0) * f) * damping;
+    }
+    constexpr int angles = 91; // every degree from 90 to 180
+    std::vector<double> x(angles), p(angles), r(angles);
+    for (int a = 0; a < angles; ++a) x[a] = -std::sin(std::numbers::pi / 2.0 * a / (angles - 1));
+    legendre_series(spread, x, p);
+    legendre_series(residual, x, r);
+    // As the stream check compares (model.cpp, disagreement): values below 1e-2 of the largest on
+    // that absolute scale.
+    double largest = 0.0;
+    for (double v : p) largest = std::max(largest, std::abs(v));
+    double worst = 0.0;
+    for (int a = 0; a < angles; ++a) worst = std::max(worst, std::abs(r[a]) / std::max(std::abs(p[a]), 1e-2 * largest));
+    return worst;
 }
 
 Matrix legendre_basis(int m, int lmax, std::span<const double> mu, int sine_power) {

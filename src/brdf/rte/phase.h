@@ -33,6 +33,15 @@ struct DeltaM {
 /// series is already shorter than L.
 DeltaM delta_m(const Medium& medium, int first_dropped);
 
+/// What delta-M leaves out of the single scattering, p - p_dM = sum_{l >= L} (2l + 1)(chi_l - f) P_l
+/// (the term TMS adds back on a smooth top's direct paths), seen through directions spread by a
+/// Gaussian of angular width sigma (each moment times exp(-l (l + 1) sigma^2 / 2), the heat kernel
+/// on the sphere): its largest size relative to the equally spread phase function over the
+/// scattering angles of a reflection, 90 to 180 degrees. L = first_dropped as for delta_m (f too:
+/// 0 for a backward-peaked function). sigma > 0; below 2.5e-3 it is taken as 2.5e-3 (moments to
+/// 4000). docs/physics.md, "Why a rough top needs more streams".
+double spread_delta_m_residual(const Medium& medium, int first_dropped, double sigma);
+
 /// psi(i, l - m) = Pbar_l^m(mu_i), l = m .. lmax, divided by (1 - mu_i^2)^(sine_power/2)
 /// (normalized_legendre_over_sine).
 Matrix legendre_basis(int m, int lmax, std::span<const double> mu, int sine_power = 0);
