@@ -54,6 +54,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -85,13 +86,13 @@ double fresnel_from_air(double c, double n) {
     return 0.5 * (rs * rs + rp * rp);
 }
 
+// Written without branches (a select at the end) so that the inner quadrature's loop vectorises.
 double fresnel_from_inside(double c, double n) {
     const double st2 = n * n * (1.0 - c * c);
-    if (st2 >= 1.0) return 1.0; // total internal reflection on the facet
-    const double ct = std::sqrt(1.0 - st2);
+    const double ct = std::sqrt(std::max(0.0, 1.0 - st2));
     const double rs = (n * c - ct) / (n * c + ct);
     const double rp = (c - n * ct) / (c + n * ct);
-    return 0.5 * (rs * rs + rp * rp);
+    return st2 >= 1.0 ? 1.0 : 0.5 * (rs * rs + rp * rp); // total internal reflection on the facet
 }
 
 double sine_of(double mu) { return std::sqrt(std::max(0.0, (1.0 - mu) * (1.0 + mu))); }
@@ -109,13 +110,18 @@ struct Facets {
           distribution(s.surface().distribution), masking(s.surface().masking) {}
 
     // D from t2 = tan^2(theta_h); 1 / cos^4 = (1 + t2)^2.
-    double d_of_tan2(double t2) const {
+    template <Microfacet D>
+    double density(double t2) const {
         const double sec2 = 1.0 + t2;
-        if (distribution == Microfacet::Ggx) {
+        if constexpr (D == Microfacet::Ggx) {
             const double q = alpha2 + t2;
             return alpha2 * sec2 * sec2 / (pi * q * q);
+        } else {
+            return std::exp(-t2 / alpha2) * sec2 * sec2 / (pi * alpha2);
         }
-        return std::exp(-t2 / alpha2) * sec2 * sec2 / (pi * alpha2);
+    }
+    double d_of_tan2(double t2) const {
+        return distribution == Microfacet::Ggx ? density<Microfacet::Ggx>(t2) : density<Microfacet::Beckmann>(t2);
     }
 
     // s: the sine of the direction (passed separately: 1 - mu^2 loses digits near the pole).
@@ -203,34 +209,123 @@ struct Value {
 };
 
 // Both transmission values come from their own Fresnel (air side for down, binder side for up), so
-// that reciprocity f_down = n^2 f_up is computed, not assumed.
-inline Value evaluate(const Facets& fc, Kind kind, const Pair& p, double omc) {
-    const double d = fc.d_of_tan2((p.a + p.b * omc) / p.c);
+// that reciprocity f_down = n^2 f_up is computed, not assumed. No branch depends on omc (selects
+// only), so that the loop over the inner nodes vectorises (inner_sums).
+template <Kind K, Microfacet D>
+inline Value evaluate_at(const Facets& fc, const Pair& p, double omc) {
+    const double d = fc.density<D>((p.a + p.b * omc) / p.c);
     const double n = fc.n;
-    switch (kind) {
-    case Kind::ReflectAir: {
+    if constexpr (K == Kind::ReflectAir || K == Kind::ReflectInside) {
         const double ci = std::sqrt(std::max(0.0, 0.5 * (1.0 + p.w0 + p.w1 * omc)));
-        const double f = fresnel_from_air(ci, n) * d * p.scale;
+        const double fresnel = K == Kind::ReflectAir ? fresnel_from_air(ci, n) : fresnel_from_inside(ci, n);
+        const double f = fresnel * d * p.scale;
         return {f, f};
-    }
-    case Kind::ReflectInside: {
-        const double ci = std::sqrt(std::max(0.0, 0.5 * (1.0 + p.w0 + p.w1 * omc)));
-        const double f = fresnel_from_inside(ci, n) * d * p.scale;
-        return {f, f};
-    }
-    default: {
+    } else {
         const double wawb = p.w0 + p.w1 * omc;
         const double h2 = 1.0 + n * n + 2.0 * n * wawb;
         const double inv = 1.0 / std::sqrt(h2);
         const double ca = -(1.0 + n * wawb) * inv;
-        if (!(ca > 0.0)) return {};
         const double cb = (wawb + n) * inv;
         const double common = ca * cb * d * p.scale / h2;
-        const double down = n * n * (1.0 - fresnel_from_air(ca, n)) * common;
-        const double up = (1.0 - fresnel_from_inside(cb, n)) * common;
-        return kind == Kind::TransmitDown ? Value{down, up} : Value{up, down};
+        const bool valid = ca > 0.0; // the facet faces the air direction
+        const double down = valid ? n * n * (1.0 - fresnel_from_air(ca, n)) * common : 0.0;
+        const double up = valid ? (1.0 - fresnel_from_inside(cb, n)) * common : 0.0;
+        return K == Kind::TransmitDown ? Value{down, up} : Value{up, down};
     }
+}
+
+template <Kind K>
+Value evaluate_kind(const Facets& fc, const Pair& p, double omc) {
+    return fc.distribution == Microfacet::Ggx ? evaluate_at<K, Microfacet::Ggx>(fc, p, omc)
+                                              : evaluate_at<K, Microfacet::Beckmann>(fc, p, omc);
+}
+
+Value evaluate(const Facets& fc, Kind kind, const Pair& p, double omc) {
+    switch (kind) {
+    case Kind::ReflectAir: return evaluate_kind<Kind::ReflectAir>(fc, p, omc);
+    case Kind::ReflectInside: return evaluate_kind<Kind::ReflectInside>(fc, p, omc);
+    case Kind::TransmitDown: return evaluate_kind<Kind::TransmitDown>(fc, p, omc);
+    case Kind::TransmitUp: return evaluate_kind<Kind::TransmitUp>(fc, p, omc);
     }
+    return {};
+}
+
+// The inner quadrature's sums (azimuth_orders): the integrand f (and its reverse) at the nodes omc
+// times their weights into f0 and f1, then sum_j f_j T_m(cos phi_j) for m < orders by the Chebyshev
+// recurrence, four nodes side by side with per-lane partial sums in acc0 and acc1 (4 per order; no
+// reassociated reductions: numerics are IEEE, docs/style.md). `count` nodes, padded to a multiple
+// of four with zero weights. Compiled for AVX-512, AVX2 and the baseline, picked at run time: the
+// same operations in the same order in each (no contraction, cmake/BrdfWarnings.cmake), so every
+// clone gives the same bits; wider vectors take the integrand's divisions and square roots and the
+// recurrence's lanes at once (docs/physics.md, "Rough interface").
+template <Kind K, Microfacet D>
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+void inner_sums(const Facets& fc, const Pair& p, std::size_t count, std::size_t padded, const double* omc,
+                const double* cosine, const double* weight, int orders, int channels, double* f0, double* f1,
+                double* acc0, double* acc1) {
+    for (std::size_t i = 0; i < count; ++i) {
+        const Value v = evaluate_at<K, D>(fc, p, omc[i]);
+        f0[i] = v.f * weight[i];
+        f1[i] = v.reverse * weight[i];
+    }
+    for (std::size_t i = count; i < padded; ++i) f0[i] = f1[i] = 0.0;
+    // Four lanes to a vector (GCC vector extensions, lowered to the clone's registers), element-wise
+    // in the scalar recurrence's order; the channel test out of the loop over the orders (GCC kept
+    // it inside, and the loop scalar).
+    typedef double Vec4 __attribute__((vector_size(32)));
+    const auto load = [](const double* x) {
+        Vec4 v;
+        std::memcpy(&v, x, sizeof v);
+        return v;
+    };
+    const auto add_to = [](double* x, Vec4 v) {
+        Vec4 sum;
+        std::memcpy(&sum, x, sizeof sum);
+        sum += v;
+        std::memcpy(x, &sum, sizeof sum);
+    };
+    for (std::size_t b0 = 0; b0 < padded; b0 += 4) {
+        Vec4 tp = {1.0, 1.0, 1.0, 1.0}, tc = load(cosine + b0);
+        const Vec4 c2 = 2.0 * tc, fa = load(f0 + b0), fb = load(f1 + b0);
+        add_to(acc0, fa);
+        if (channels > 1) {
+            add_to(acc1, fb);
+            for (int m = 1; m < orders; ++m) {
+                add_to(acc0 + 4 * m, fa * tc);
+                add_to(acc1 + 4 * m, fb * tc);
+                const Vec4 tn = c2 * tc - tp;
+                tp = tc;
+                tc = tn;
+            }
+        } else {
+            for (int m = 1; m < orders; ++m) {
+                add_to(acc0 + 4 * m, fa * tc);
+                const Vec4 tn = c2 * tc - tp;
+                tp = tc;
+                tc = tn;
+            }
+        }
+    }
+}
+
+using InnerSums = void (*)(const Facets&, const Pair&, std::size_t, std::size_t, const double*, const double*,
+                           const double*, int, int, double*, double*, double*, double*);
+
+template <Kind K>
+InnerSums inner_sums_for(Microfacet d) {
+    return d == Microfacet::Ggx ? &inner_sums<K, Microfacet::Ggx> : &inner_sums<K, Microfacet::Beckmann>;
+}
+
+InnerSums inner_sums_for(Kind kind, Microfacet d) {
+    switch (kind) {
+    case Kind::ReflectAir: return inner_sums_for<Kind::ReflectAir>(d);
+    case Kind::ReflectInside: return inner_sums_for<Kind::ReflectInside>(d);
+    case Kind::TransmitDown: return inner_sums_for<Kind::TransmitDown>(d);
+    case Kind::TransmitUp: return inner_sums_for<Kind::TransmitUp>(d);
+    }
+    return nullptr;
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -472,43 +567,14 @@ void azimuth_orders(const Facets& fc, Kind kind, const Pair& p, const Level& lev
         }
     }
     ws.evaluations += static_cast<long long>(total);
-    ws.f0.assign(padded, 0.0);
-    ws.f1.assign(padded, 0.0);
-    for (std::size_t i = 0; i < total; ++i) {
-        const Value v = evaluate(fc, kind, p, ws.omc[i]);
-        ws.f0[i] = v.f * ws.phi_w[i];
-        ws.f1[i] = v.reverse * ws.phi_w[i];
-    }
-
-    // sum_j f_j T_m(cos phi_j) by the Chebyshev recurrence, four nodes side by side with per-lane
-    // partial sums (no reassociated reductions: numerics are IEEE, docs/style.md).
+    ws.f0.resize(padded);
+    ws.f1.resize(padded);
     const int m_count = orders;
     ws.cheb.assign(static_cast<std::size_t>(2 * m_count * 4), 0.0);
     double* acc0 = ws.cheb.data();
     double* acc1 = acc0 + m_count * 4;
-    for (std::size_t b0 = 0; b0 < padded; b0 += 4) {
-        double tp[4], tc[4], c2[4], fa[4], fb[4];
-        for (int l = 0; l < 4; ++l) {
-            tp[l] = 1.0;
-            tc[l] = ws.cosine[b0 + l];
-            c2[l] = 2.0 * tc[l];
-            fa[l] = ws.f0[b0 + l];
-            fb[l] = ws.f1[b0 + l];
-        }
-        for (int l = 0; l < 4; ++l) acc0[l] += fa[l];
-        if (channels > 1)
-            for (int l = 0; l < 4; ++l) acc1[l] += fb[l];
-        for (int m = 1; m < m_count; ++m) {
-            for (int l = 0; l < 4; ++l) acc0[4 * m + l] += fa[l] * tc[l];
-            if (channels > 1)
-                for (int l = 0; l < 4; ++l) acc1[4 * m + l] += fb[l] * tc[l];
-            for (int l = 0; l < 4; ++l) {
-                const double tn = c2[l] * tc[l] - tp[l];
-                tp[l] = tc[l];
-                tc[l] = tn;
-            }
-        }
-    }
+    inner_sums_for(kind, fc.distribution)(fc, p, total, padded, ws.omc.data(), ws.cosine.data(), ws.phi_w.data(),
+                                          m_count, channels, ws.f0.data(), ws.f1.data(), acc0, acc1);
     for (int ch = 0; ch < channels; ++ch) {
         const double* acc = ch == 0 ? acc0 : acc1;
         for (int m = 0; m < m_count; ++m)
