@@ -107,7 +107,9 @@ nlohmann::json make_report(const model::SolvedMaterial& m, const std::vector<std
                    "hardest wavelengths (docs/quadrature-study.md), or that difference from 3/4 of "
                    "it extrapolated where a third count (9/16) measured the error falling as N^-4 "
                    "or faster (docs/physics.md, \"Stream count\"); checked_streams: the counts "
-                   "solved, in order; tables add their binning error"}}},
+                   "solved, in order (under a rough top the check skips the counts its spread "
+                   "delta-M residual rules out and confirms the first it keeps from above: "
+                   "docs/physics.md, \"Rough interface\"); tables add their binning error"}}},
         {"wavelengths", samples},
         {"wavelengths_interpolated", m.wavelengths_interpolated},
         {"wavelengths_single_scattering_only", m.single_only.size()},
