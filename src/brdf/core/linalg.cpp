@@ -87,21 +87,31 @@ double max_abs_diff(const Matrix& a, const Matrix& b) {
     return m;
 }
 
-LuFactor::LuFactor(Matrix a) : m_lu(std::move(a)), m_pivot(static_cast<std::size_t>(m_lu.rows())) {
-    const int n = m_lu.rows();
-    if (m_lu.cols() != n) throw InputError(cat("LU: matrix is not square (", n, "x", m_lu.cols(), ")"));
+namespace {
+
+// LU with partial pivoting in place (rows), and the triangular solves for many right-hand sides:
+// row operations over contiguous rows, compiled for AVX-512, AVX2 and the baseline and picked at run
+// time. Element-wise, in the same order in every clone and without contraction
+// (cmake/BrdfWarnings.cmake): the same bits in each. A rough top's adding factors one n x n matrix
+// per order and sample (setup_rough): with the baseline's two doubles to a register this was a
+// twentieth of a gloss finish's compute.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+void lu_factor_rows(Matrix& lu, std::vector<int>& pivots) {
+    const int n = lu.rows();
     for (int k = 0; k < n; ++k) {
         int p = k;
         for (int i = k + 1; i < n; ++i)
-            if (std::abs(m_lu(i, k)) > std::abs(m_lu(p, k))) p = i;
-        const double pivot = m_lu(p, k);
+            if (std::abs(lu(i, k)) > std::abs(lu(p, k))) p = i;
+        const double pivot = lu(p, k);
         if (pivot == 0.0 || !std::isfinite(pivot))
             throw NumericalError(cat("LU: matrix is singular or not finite at column ", k, " of ", n));
-        m_pivot[k] = p;
-        if (p != k) std::swap_ranges(m_lu.row(k).begin(), m_lu.row(k).end(), m_lu.row(p).begin());
-        const auto rk = m_lu.row(k);
+        pivots[k] = p;
+        if (p != k) std::swap_ranges(lu.row(k).begin(), lu.row(k).end(), lu.row(p).begin());
+        const auto rk = lu.row(k);
         for (int i = k + 1; i < n; ++i) {
-            const auto ri = m_lu.row(i);
+            const auto ri = lu.row(i);
             const double f = (ri[k] /= pivot);
             if (f == 0.0) continue;
             for (int j = k + 1; j < n; ++j) ri[j] -= f * rk[j];
@@ -109,16 +119,18 @@ LuFactor::LuFactor(Matrix a) : m_lu(std::move(a)), m_pivot(static_cast<std::size
     }
 }
 
-void LuFactor::solve(Matrix& b) const {
-    const int n = m_lu.rows();
-    if (b.rows() != n) throw InputError(cat("LU solve: right-hand side has ", b.rows(), " rows, not ", n));
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+void lu_solve_rows(const Matrix& lu, const std::vector<int>& pivots, Matrix& b) {
+    const int n = lu.rows();
     for (int k = 0; k < n; ++k)
-        if (m_pivot[k] != k) std::swap_ranges(b.row(k).begin(), b.row(k).end(), b.row(m_pivot[k]).begin());
+        if (pivots[k] != k) std::swap_ranges(b.row(k).begin(), b.row(k).end(), b.row(pivots[k]).begin());
     const int m = b.cols();
     for (int i = 0; i < n; ++i) { // forward: L has a unit diagonal
         auto bi = b.row(i);
         for (int k = 0; k < i; ++k) {
-            const double l = m_lu(i, k);
+            const double l = lu(i, k);
             if (l == 0.0) continue;
             const auto bk = b.row(k);
             for (int j = 0; j < m; ++j) bi[j] -= l * bk[j];
@@ -127,14 +139,28 @@ void LuFactor::solve(Matrix& b) const {
     for (int i = n - 1; i >= 0; --i) { // backward
         auto bi = b.row(i);
         for (int k = i + 1; k < n; ++k) {
-            const double u = m_lu(i, k);
+            const double u = lu(i, k);
             if (u == 0.0) continue;
             const auto bk = b.row(k);
             for (int j = 0; j < m; ++j) bi[j] -= u * bk[j];
         }
-        const double d = m_lu(i, i);
+        const double d = lu(i, i);
         for (int j = 0; j < m; ++j) bi[j] /= d;
     }
+}
+
+} // namespace
+
+LuFactor::LuFactor(Matrix a) : m_lu(std::move(a)), m_pivot(static_cast<std::size_t>(m_lu.rows())) {
+    const int n = m_lu.rows();
+    if (m_lu.cols() != n) throw InputError(cat("LU: matrix is not square (", n, "x", m_lu.cols(), ")"));
+    lu_factor_rows(m_lu, m_pivot);
+}
+
+void LuFactor::solve(Matrix& b) const {
+    const int n = m_lu.rows();
+    if (b.rows() != n) throw InputError(cat("LU solve: right-hand side has ", b.rows(), " rows, not ", n));
+    lu_solve_rows(m_lu, m_pivot, b);
 }
 
 void LuFactor::solve(std::span<double> b) const {
