@@ -160,8 +160,8 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     int n = st.streams;
     // Under a rough top the orders carry the single scattering with the delta-M phase function (TMS
     // corrects only a smooth top's direct paths), so what delta-M leaves out shows in the body as
-    // far as the interface's lobes do not spread it out (docs/physics.md, "Why a rough top needs
-    // more streams"). Counts whose spread residual (rte::spread_delta_m_residual, the lobes taken as
+    // far as the interface's lobes do not spread it out (docs/physics.md, "Rough interface": "Why a
+    // rough top needs more streams", "Which counts the check skips"). Counts whose spread residual (rte::spread_delta_m_residual, the lobes taken as
     // a Gaussian of width 0.3 alpha) exceeds 30 times the tolerance are skipped: the body's error
     // was measured at 0.06 to 0.5 of that residual (the single scattering's share of the body; the
     // seed in gloss, satin and matte, HG g 0.9 in gloss), so such a count fails the check. The start
@@ -183,7 +183,7 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
         const int next = std::min(st.max_streams, (3 * n + 1) / 2);
         if (next >= st.max_streams) break;
         const double residual = rough_residual(n);
-        if (residual <= 30.0 * st.tolerance) break;
+        if (!(residual > 30.0 * st.tolerance)) break;
         log::debug("streams ", n, " skipped: the rough top's spread delta-M residual ", residual, " > 30 x tolerance");
         n = next;
         skipped = true;

@@ -39,7 +39,7 @@ DeltaM delta_m(const Medium& medium, int first_dropped);
 /// on the sphere): its largest size relative to the equally spread phase function over the
 /// scattering angles of a reflection, 90 to 180 degrees. L = first_dropped as for delta_m (f too:
 /// 0 for a backward-peaked function). sigma > 0; below 2.5e-3 it is taken as 2.5e-3 (moments to
-/// 4000). docs/physics.md, "Why a rough top needs more streams".
+/// 4000). docs/physics.md, "Rough interface", "Which counts the check skips".
 double spread_delta_m_residual(const Medium& medium, int first_dropped, double sigma);
 
 /// psi(i, l - m) = Pbar_l^m(mu_i), l = m .. lmax, divided by (1 - mu_i^2)^(sine_power/2)
