@@ -121,13 +121,14 @@ double legendre_series(std::span<const double> beta, double x) {
 // was not vectorised (GCC interchanged it with the loop over l). The phase tables of a big sphere's
 // series, thousands of terms at thousands of points, took a fifth of the time. Element-wise operations
 // in the scalar sum's order and no contraction (cmake/BrdfWarnings.cmake): every clone, and the
-// scalar legendre_series above, give the same bits.
+// scalar legendre_series above, give the same bits. It throws nothing: GCC 12 takes a
+// target_clones function for one that does not throw, which skips its callers' cleanups
+// (linalg.cpp, lu_factor_rows); legendre_series checks the sizes.
+namespace {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-void legendre_series(std::span<const double> beta, std::span<const double> x, std::span<double> out) {
-    if (out.size() < x.size())
-        throw InternalError(cat("legendre_series: ", out.size(), " outputs for ", x.size(), " points"));
+void legendre_series_blocks(std::span<const double> beta, std::span<const double> x, std::span<double> out) {
     typedef double Vec8 __attribute__((vector_size(64)));
     // Points in blocks whose two recurrence rows stay in the L1 cache.
     constexpr std::size_t lanes = 8, vectors = 32, block = lanes * vectors;
@@ -155,6 +156,13 @@ void legendre_series(std::span<const double> beta, std::span<const double> x, st
         }
         for (std::size_t j = 0; j < count; ++j) out[first + j] = b1[j / lanes][j % lanes];
     }
+}
+} // namespace
+
+void legendre_series(std::span<const double> beta, std::span<const double> x, std::span<double> out) {
+    if (out.size() < x.size())
+        throw InternalError(cat("legendre_series: ", out.size(), " outputs for ", x.size(), " points"));
+    legendre_series_blocks(beta, x, out);
 }
 
 } // namespace brdf

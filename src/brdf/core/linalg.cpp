@@ -94,19 +94,21 @@ namespace {
 // time. Element-wise, in the same order in every clone and without contraction
 // (cmake/BrdfWarnings.cmake): the same bits in each. A rough top's adding factors one n x n matrix
 // per order and sample (setup_rough): with the baseline's two doubles to a register this was a
-// twentieth of a gloss finish's compute.
+// twentieth of a gloss finish's compute. Nothing is thrown inside a clone: GCC 12 takes a
+// target_clones function for one that does not throw, and the caller's cleanups were skipped (the
+// ASan build found the pivots of a singular matrix leaked). Returns the column whose pivot is zero
+// or not finite, or -1.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
-void lu_factor_rows(Matrix& lu, std::vector<int>& pivots) {
+int lu_factor_rows(Matrix& lu, std::vector<int>& pivots) {
     const int n = lu.rows();
     for (int k = 0; k < n; ++k) {
         int p = k;
         for (int i = k + 1; i < n; ++i)
             if (std::abs(lu(i, k)) > std::abs(lu(p, k))) p = i;
         const double pivot = lu(p, k);
-        if (pivot == 0.0 || !std::isfinite(pivot))
-            throw NumericalError(cat("LU: matrix is singular or not finite at column ", k, " of ", n));
+        if (pivot == 0.0 || !std::isfinite(pivot)) return k;
         pivots[k] = p;
         if (p != k) std::swap_ranges(lu.row(k).begin(), lu.row(k).end(), lu.row(p).begin());
         const auto rk = lu.row(k);
@@ -117,6 +119,7 @@ void lu_factor_rows(Matrix& lu, std::vector<int>& pivots) {
             for (int j = k + 1; j < n; ++j) ri[j] -= f * rk[j];
         }
     }
+    return -1;
 }
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
@@ -154,7 +157,8 @@ void lu_solve_rows(const Matrix& lu, const std::vector<int>& pivots, Matrix& b) 
 LuFactor::LuFactor(Matrix a) : m_lu(std::move(a)), m_pivot(static_cast<std::size_t>(m_lu.rows())) {
     const int n = m_lu.rows();
     if (m_lu.cols() != n) throw InputError(cat("LU: matrix is not square (", n, "x", m_lu.cols(), ")"));
-    lu_factor_rows(m_lu, m_pivot);
+    if (const int k = lu_factor_rows(m_lu, m_pivot); k >= 0)
+        throw NumericalError(cat("LU: matrix is singular or not finite at column ", k, " of ", n));
 }
 
 void LuFactor::solve(Matrix& b) const {
