@@ -121,8 +121,8 @@ TEST(StreamChoice, AStartCountConvergingAsTheQuadratureStudysIsKeptByItsMeasured
 }
 
 // Under a rough top the orders carry the single scattering's delta-M residual: the check skips the
-// counts whose spread residual says they would fail (docs/physics.md, "Why a rough top needs more
-// streams") and confirms the first it keeps from above. The seed's rutile at the two wavelengths the
+// counts whose spread residual says they would fail (docs/physics.md, "Rough interface", "Which
+// counts the check skips") and confirms the first it keeps from above. The seed's rutile at the two wavelengths the
 // visible spectrum probes: under gloss and satin 32 streams are skipped and 48 are confirmed by 64,
 // which must meet the tolerance against a fine solve; under matte, whose broad lobes average the
 // residual out, nothing is skipped and 32 are confirmed from below as under a smooth top. The gloss's
