@@ -158,14 +158,17 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     probes.push_back(peaked);
     if (bright != peaked) probes.push_back(bright);
     int n = st.streams;
+    // The count the check goes up to from n: 1.5 times as many, at most the cap.
+    const auto next_count = [&](int count) { return std::min(st.max_streams, (3 * count + 1) / 2); };
     // Under a rough top the orders carry the single scattering with the delta-M phase function (TMS
     // corrects only a smooth top's direct paths), so what delta-M leaves out shows in the body as
     // far as the interface's lobes do not spread it out (docs/physics.md, "Rough interface": "Why a
-    // rough top needs more streams", "Which counts the check skips"). Counts whose spread residual (rte::spread_delta_m_residual, the lobes taken as
-    // a Gaussian of width 0.3 alpha) exceeds 30 times the tolerance are skipped: the body's error
-    // was measured at 0.06 to 0.5 of that residual (the single scattering's share of the body; the
-    // seed in gloss, satin and matte, HG g 0.9 in gloss), so such a count fails the check. The start
-    // stays below the cap, which checks it from above.
+    // rough top needs more streams", "Which counts the check skips"). Counts whose spread residual
+    // (rte::spread_delta_m_residual, the lobes taken as a Gaussian of width 0.3 alpha) exceeds 30
+    // times the tolerance are skipped: the body's error was measured at 0.06 to 0.5 of that residual
+    // (the single scattering's share of the body; the seed in gloss, satin and matte, HG g 0.9 in
+    // gloss), so such a count fails the check. The start stays below the cap, which checks it from
+    // above.
     const auto rough_residual = [&](int streams) {
         double worst = 0.0;
         for (std::size_t k : probes) {
@@ -180,7 +183,7 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     };
     bool skipped = false;
     for (;;) {
-        const int next = std::min(st.max_streams, (3 * n + 1) / 2);
+        const int next = next_count(n);
         if (next >= st.max_streams) break;
         const double residual = rough_residual(n);
         if (!(residual > 30.0 * st.tolerance)) break;
@@ -251,7 +254,7 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
         log::debug("streams ", below, " and ", n, " differ by ", estimate, ": checking ", n, " from above");
     }
     for (;;) {
-        const int next = std::min(st.max_streams, (3 * n + 1) / 2);
+        const int next = next_count(n);
         if (next <= n) return chosen(); // at the cap: keep the last estimate
         if (at_n.empty()) {
             std::tie(at_n, probe_seconds) = solve_probes(probes, n);
