@@ -17,6 +17,9 @@
 /// brdf::model::fill_order_block: the Fourier orders of one grid node are stored in blocks of this
 /// many (the last padded with zeros), each order's channels (FillParams::channels) together.
 #define TF_ORDER_BLOCK 8
+/// Cells per work item of the table-fill kernel, one in each lane of its double8 values: the
+/// first phi_d half's 729000 cells are 91125 work items.
+#define TF_LANES 8
 
 typedef struct FillParams {
     brdf_i64 fourier_offset;      ///< FillInputs::fourier, grid * grid * padded orders * channels

@@ -1,5 +1,5 @@
 // Host side of kernels/table_fill.cl: packs FillInputs' arrays into one buffer of doubles, runs one
-// work-item per cell and reads the three channel planes straight into a formats::BrdfTable.
+// work-item per TF_LANES cells and reads the three channel planes straight into a formats::BrdfTable.
 
 #include <brdf/model/cl_table_fill.h>
 
@@ -18,6 +18,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 namespace brdf::model {
@@ -70,6 +71,10 @@ void validate(const FillInputs& in) {
         throw InputError(cat("OpenCL table fill: ", in.channels, " channels (1 or 3)"));
     const auto c = static_cast<std::size_t>(in.channels);
     require_size(in.fourier.size(), static_cast<std::size_t>(padded_orders(in.orders)) * c * e * e, "fourier");
+    // The kernel indexes a lane's grid nodes with 32-bit ints (int8 vectors).
+    if (in.fourier.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+        throw LimitError(cat("OpenCL table fill: ", in.fourier.size(), " Fourier values (at most ",
+                             std::numeric_limits<int>::max(), "); use --device cpu"));
     require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)) * c, "phase");
     require_size(in.refractive_index.size(), s, "refractive_index");
     require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");
@@ -161,10 +166,12 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     for (int c = 0; c < 3; ++c)
         brdf::cl::check(kernel.setArg(2 + c, out_bufs[c]), "OpenCL table fill: set argument output");
 
-    // A work item per cell of the first phi_d half (it writes the mirror too); the global size is
-    // rounded up to a multiple of the local size, and the kernel ignores ids past the half.
+    // A work item per TF_LANES cells of the first phi_d half (each writes their mirrors too); the
+    // global size is rounded up to a multiple of the local size, and the kernel ignores cells past
+    // the half.
     constexpr std::size_t local = 64;
-    const std::size_t global = (formats::cells / 2 + local - 1) / local * local;
+    constexpr std::size_t items = (formats::cells / 2 + TF_LANES - 1) / TF_LANES;
+    const std::size_t global = (items + local - 1) / local * local;
     ::cl::CommandQueue& queue = ctx->queue();
     brdf::cl::check(queue.enqueueNDRangeKernel(kernel, ::cl::NullRange, ::cl::NDRange(global), ::cl::NDRange(local)),
                     "OpenCL table fill: run table_fill");
