@@ -140,8 +140,6 @@ std::size_t nearest_cell(double theta_i, double theta_o, double phi) {
     return nearest_cell(p.wi, p.wo);
 }
 
-namespace {
-
 // One byte per cell, computed once: the writers ask for every cell of every table. The heights of
 // to_directions' wi and wo from each bin centre's sine and cosine, taken once per angle rather than
 // once per cell (six calls for each of the 1.46 M cells were 30 ms of every table): the same
@@ -168,8 +166,6 @@ const std::vector<std::uint8_t>& below_horizon_mask() {
     }();
     return mask;
 }
-
-} // namespace
 
 bool cell_below_horizon(std::size_t cell) {
     return below_horizon_mask()[cell] != 0;

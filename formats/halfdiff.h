@@ -17,6 +17,8 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 namespace brdf::formats {
 
@@ -108,5 +110,8 @@ std::size_t nearest_cell(double theta_i, double theta_o, double phi);
 /// direction receives or sends no light) never decides a cell.
 bool cell_below_horizon(int theta_h, int theta_d, int phi_d);
 bool cell_below_horizon(std::size_t cell);
+/// below_horizon_mask()[cell] != 0 where cell_below_horizon(cell): one byte per cell, computed once,
+/// for loops over every cell (a call per cell cost more than the loops' own work).
+const std::vector<std::uint8_t>& below_horizon_mask();
 
 } // namespace brdf::formats

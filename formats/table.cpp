@@ -7,7 +7,10 @@
 #include <brdf/core/quadrature.h>
 
 #include <cctype>
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 namespace brdf::formats {
 
@@ -63,24 +66,52 @@ std::string describe_cell(std::size_t cell) {
     return cat("cell theta_h ", c.theta_h, ", theta_d ", c.theta_d, ", phi_d ", c.phi_d);
 }
 
+namespace {
+
+// The first cell from `first` on that breaks check_table's invariants, or `cells`: whole blocks
+// without a branch per value (the compilers vectorise them), then the bad block cell by cell.
+std::size_t first_bad_cell(const BrdfTable& table, std::size_t first) {
+    const std::uint8_t* below = below_horizon_mask().data();
+    const double* r = table.channels[0].data();
+    const double* g = table.channels[1].data();
+    const double* b = table.channels[2].data();
+    const auto value = [](double v) { return (v >= 0.0) & (v <= std::numeric_limits<double>::max()); };
+    const auto ok = [&](std::size_t cell) {
+        const bool data = value(r[cell]) & value(g[cell]) & value(b[cell]);
+        const bool none = (r[cell] == BrdfTable::no_data) & (g[cell] == BrdfTable::no_data) &
+                          (b[cell] == BrdfTable::no_data);
+        return (below[cell] != 0) | data | none;
+    };
+    constexpr std::size_t block = 4096;
+    for (std::size_t start = first; start < cells; start += block) {
+        const std::size_t end = std::min(cells, start + block);
+        bool all = true;
+        for (std::size_t cell = start; cell < end; ++cell) all &= ok(cell);
+        if (all) continue;
+        for (std::size_t cell = start; cell < end; ++cell)
+            if (!ok(cell)) return cell;
+    }
+    return cells;
+}
+
+} // namespace
+
 void check_table(const BrdfTable& table, std::string_view what) {
     for (int c = 0; c < 3; ++c)
         if (table.channels[c].size() != cells)
             throw NumericalError(cat(what, ": the ", channel_name(c), " channel holds ",
                                      table.channels[c].size(), " values (", cells, " expected)"));
-    for (std::size_t cell = 0; cell < cells; ++cell) {
-        if (cell_below_horizon(cell)) continue;
-        const Rgb v = table.at(cell);
-        const bool no_data =
-            v[0] == BrdfTable::no_data && v[1] == BrdfTable::no_data && v[2] == BrdfTable::no_data;
-        if (no_data) continue;
-        for (int c = 0; c < 3; ++c)
-            if (!std::isfinite(v[c]) || v[c] < 0.0)
-                throw NumericalError(cat(what, ": ", channel_name(c), " value ",
-                                         detail::value_text(v[c]), " at ", describe_cell(cell),
-                                         " (a BRDF must be finite and >= 0, or -1 in all three "
-                                         "channels for no data)"));
-    }
+    const std::size_t cell = first_bad_cell(table, 0);
+    if (cell == cells) return;
+    // Not all three no data, so some channel is negative or not finite: the first is named.
+    const Rgb v = table.at(cell);
+    for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(v[c]) || v[c] < 0.0)
+            throw NumericalError(cat(what, ": ", channel_name(c), " value ", detail::value_text(v[c]), " at ",
+                                     describe_cell(cell),
+                                     " (a BRDF must be finite and >= 0, or -1 in all three "
+                                     "channels for no data)"));
+    throw InternalError(cat(what, ": check_table found ", describe_cell(cell), " bad but no bad value"));
 }
 
 TableSample sample(const BrdfTable& table, double theta_i, double theta_o, double phi) {

@@ -125,8 +125,9 @@ BrdfTable read_exr(const std::filesystem::path& path) {
 void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
     check_table(table, display(path));
     std::size_t no_data_above_horizon = 0;
+    const std::uint8_t* below = below_horizon_mask().data();
     for (std::size_t cell = 0; cell < cells; ++cell)
-        no_data_above_horizon += !cell_below_horizon(cell) && !table.has_data(cell);
+        no_data_above_horizon += below[cell] == 0 && table.channels[0][cell] == BrdfTable::no_data;
     if (no_data_above_horizon > 0)
         log::warn(display(path), ": ", no_data_above_horizon,
                   " cells above the horizon hold no data; OpenEXR tables store them as 0");

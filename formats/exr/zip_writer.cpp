@@ -44,13 +44,14 @@ std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int
     unsigned char* split = scratch.data() + size;
     unsigned char* at = xdr;
     std::uint32_t row[exr_width];
+    const std::uint8_t* below = below_horizon_mask().data();
     for (int y = y0; y < y0 + lines; ++y) {
         const std::size_t first = static_cast<std::size_t>(y) * exr_width;
         for (const PlaneSource& p : planes) {
             for (int x = 0; x < exr_width; ++x) {
                 const float v =
                     p.data ? p.data[first + x] : static_cast<float>(p.doubles[first + x]);
-                const float stored = v >= 0.0f && !cell_below_horizon(first + x) ? v : 0.0f;
+                const float stored = v >= 0.0f && below[first + x] == 0 ? v : 0.0f;
                 std::uint32_t bits;
                 std::memcpy(&bits, &stored, sizeof bits);
                 row[x] = bits; // little-endian host: the Xdr order

@@ -132,6 +132,7 @@ void write_merl(const std::filesystem::path& path, const BrdfTable& table) {
     const int threads = std::min(available_cpus(), static_cast<int>(3 * blocks_per_plane));
     parallel_for(threads, threads, [&](int t) {
         std::vector<double> buffer(block);
+        const std::uint8_t* below = below_horizon_mask().data();
         const auto step = static_cast<std::size_t>(threads);
         for (std::size_t b = static_cast<std::size_t>(t); b < 3 * blocks_per_plane; b += step) {
             const int c = static_cast<int>(b / blocks_per_plane);
@@ -140,7 +141,7 @@ void write_merl(const std::filesystem::path& path, const BrdfTable& table) {
             const TablePlane& values = table.channels[c];
             for (std::size_t k = 0; k < count; ++k) {
                 const std::size_t cell = first + k;
-                buffer[k] = cell_below_horizon(cell) || !table.has_data(cell)
+                buffer[k] = below[cell] != 0 || !table.has_data(cell)
                                 ? -1.0
                                 : values[cell] / merl_scales[c];
             }

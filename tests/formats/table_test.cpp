@@ -77,6 +77,18 @@ TEST(CheckTable, NamesTheFirstBadCell) {
     t = BrdfTable();
     t.channels[2][cell_index(0, 0, 7)] = -std::numeric_limits<double>::infinity();
     EXPECT_THROW(check_table(t, "t"), NumericalError);
+    // The first bad cell in cell order is named, however far apart the bad cells lie (the check
+    // runs over blocks of cells); a cell with -1 in one channel alone is not "no data".
+    t = BrdfTable();
+    t.channels[1][cell_index(80, 2, 3)] = std::nan("");
+    t.channels[0][cell_index(40, 5, 6)] = BrdfTable::no_data;
+    EXPECT_THROW_MESSAGE(check_table(t, "t"), NumericalError,
+                         "t: red value -1 at cell theta_h 40, theta_d 5, phi_d 6 (a BRDF must be "
+                         "finite and >= 0, or -1 in all three channels for no data)");
+    t.channels[0][cell_index(40, 5, 6)] = 0.0;
+    EXPECT_THROW_MESSAGE(check_table(t, "t"), NumericalError,
+                         "t: green value NaN at cell theta_h 80, theta_d 2, phi_d 3 (a BRDF must be "
+                         "finite and >= 0, or -1 in all three channels for no data)");
     // Below the horizon anything goes: writers ignore those cells.
     t = BrdfTable();
     t.channels[0][cell_index(89, 89, 0)] = std::nan("");
