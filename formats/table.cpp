@@ -68,26 +68,31 @@ std::string describe_cell(std::size_t cell) {
 
 namespace {
 
-// The first cell from `first` on that breaks check_table's invariants, or `cells`: whole blocks
-// without a branch per value (the compilers vectorise them), then the bad block cell by cell.
-std::size_t first_bad_cell(const BrdfTable& table, std::size_t first) {
-    const std::uint8_t* below = below_horizon_mask().data();
-    const double* r = table.channels[0].data();
-    const double* g = table.channels[1].data();
-    const double* b = table.channels[2].data();
-    const auto value = [](double v) { return (v >= 0.0) & (v <= std::numeric_limits<double>::max()); };
-    const auto ok = [&](std::size_t cell) {
-        const bool data = value(r[cell]) & value(g[cell]) & value(b[cell]);
-        const bool none = (r[cell] == BrdfTable::no_data) & (g[cell] == BrdfTable::no_data) &
-                          (b[cell] == BrdfTable::no_data);
+// Whether a cell keeps check_table's invariants: below the horizon, or finite and >= 0 in all three
+// channels, or no data in all three. Without branches, so that a loop over cells vectorises.
+struct CellCheck {
+    const std::uint8_t* below;
+    const double *r, *g, *b;
+    bool operator()(std::size_t cell) const {
+        constexpr double big = std::numeric_limits<double>::max();
+        const double x = r[cell], y = g[cell], z = b[cell];
+        const bool data = (x >= 0.0) & (x <= big) & (y >= 0.0) & (y <= big) & (z >= 0.0) & (z <= big);
+        const bool none = (x == BrdfTable::no_data) & (y == BrdfTable::no_data) & (z == BrdfTable::no_data);
         return (below[cell] != 0) | data | none;
-    };
+    }
+};
+
+// The first cell that breaks the invariants, or `cells`: blocks of cells counted (a vectorised
+// loop), then the first block with a bad cell cell by cell.
+std::size_t first_bad_cell(const BrdfTable& table) {
+    const CellCheck ok{below_horizon_mask().data(), table.channels[0].data(), table.channels[1].data(),
+                       table.channels[2].data()};
     constexpr std::size_t block = 4096;
-    for (std::size_t start = first; start < cells; start += block) {
+    for (std::size_t start = 0; start < cells; start += block) {
         const std::size_t end = std::min(cells, start + block);
-        bool all = true;
-        for (std::size_t cell = start; cell < end; ++cell) all &= ok(cell);
-        if (all) continue;
+        std::size_t bad = 0;
+        for (std::size_t cell = start; cell < end; ++cell) bad += !ok(cell);
+        if (bad == 0) continue;
         for (std::size_t cell = start; cell < end; ++cell)
             if (!ok(cell)) return cell;
     }
@@ -101,7 +106,7 @@ void check_table(const BrdfTable& table, std::string_view what) {
         if (table.channels[c].size() != cells)
             throw NumericalError(cat(what, ": the ", channel_name(c), " channel holds ",
                                      table.channels[c].size(), " values (", cells, " expected)"));
-    const std::size_t cell = first_bad_cell(table, 0);
+    const std::size_t cell = first_bad_cell(table);
     if (cell == cells) return;
     // Not all three no data, so some channel is negative or not finite: the first is named.
     const Rgb v = table.at(cell);
