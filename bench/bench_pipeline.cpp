@@ -70,6 +70,15 @@ void BM_FillSeed(benchmark::State& state) {
 }
 BENCHMARK(BM_FillSeed)->Unit(benchmark::kMillisecond)->Iterations(2);
 
+// The same cells one at a time (cell_value, the reference the lanes of BM_FillSeed equal bit for bit).
+void BM_FillSeedReference(benchmark::State& state) {
+    const model::SolvedMaterial m = model::solve_material(seed(), model::Device::Cpu);
+    const model::FillInputs in = model::prepare_fill(m);
+    const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    for (auto _ : state) benchmark::DoNotOptimize(model::fill_table_reference(in, threads));
+}
+BENCHMARK(BM_FillSeedReference)->Unit(benchmark::kMillisecond)->Iterations(2);
+
 // The same fill on the OpenCL device (one launch, one work-item per cell; includes the transfers).
 void BM_FillSeedOpenCL(benchmark::State& state) {
     const model::SolvedMaterial m = model::solve_material(seed(), model::Device::Cpu);

@@ -8,7 +8,10 @@
 #include <brdf/rte/phase.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <numbers>
 
@@ -645,7 +648,7 @@ Rgb fill_value_from_cosines(const FillInputs& in, double mu_i, double mu_o, doub
     return cell_value(in, {mu_i, mu_o, cos_phi});
 }
 
-formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
+formats::BrdfTable fill_table_reference(const FillInputs& in, int threads) {
     formats::BrdfTable table(formats::BrdfTable::Unwritten{}); // every cell is written below
     // Half the cells, each copied to its mirror phi_d -> pi - phi_d (bin k -> 179 - k): reflecting
     // both directions through the plane of the normal and the half vector maps phi_d to -phi_d, and
@@ -675,6 +678,287 @@ formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
             table.set(first + bins - 1 - k, v);
         }
     });
+    return table;
+}
+
+namespace {
+
+// ---- The fill in lanes: fill_table_cpu -------------------------------------------------------------
+//
+// cell_value for eight cells at once, one in each lane of GCC's vector types, as the OpenCL kernel
+// (kernels/table_fill.cl) computes them: the per-cell loop left the processor a few hundred
+// dependent scalar operations per cell (the Chebyshev recurrence, the single scattering's square
+// roots and divisions). The same formulas in the same order, and the same library calls lane by
+// lane (acos, expm1, exp, erfc), so every value equals cell_value's bit for bit
+// (TableFillLanes.EqualTheReferenceBitForBit). Compiled for AVX-512, AVX2 and the baseline.
+
+// Lanes pass between functions that are always inlined into the clones of fill_row_lanes, never
+// across a call: GCC's note that a 64-byte vector argument changes the ABI without AVX-512 does not
+// apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+constexpr int lanes = 8;
+using Lanes = double __attribute__((vector_size(8 * lanes)));
+static_assert(fill_order_block == lanes, "a block of orders of one channel is one vector");
+
+[[gnu::always_inline]] inline Lanes splat(double v) { return Lanes{} + v; }
+// std::clamp(v, lo, hi) and std::max(0.0, v) per lane (NaN: v, and 0).
+[[gnu::always_inline]] inline Lanes clamp_lanes(Lanes v, double lo, double hi) {
+    return v < lo ? splat(lo) : (hi < v ? splat(hi) : v);
+}
+[[gnu::always_inline]] inline Lanes max0_lanes(Lanes v) { return 0.0 < v ? v : splat(0.0); }
+template <typename F> [[gnu::always_inline]] inline Lanes per_lane(Lanes v, F f) {
+    Lanes out;
+    for (int l = 0; l < lanes; ++l) out[l] = f(v[l]);
+    return out;
+}
+[[gnu::always_inline]] inline Lanes sqrt_lanes(Lanes v) {
+    return per_lane(v, [](double x) { return std::sqrt(x); });
+}
+
+// cubic_table in every lane: each lane's taps read from the table where its x falls.
+[[gnu::always_inline]] inline void cubic_taps_lanes(int points, Lanes x, int k[lanes], Lanes w[4]) {
+    const int intervals = points - 3;
+    const Lanes t = clamp_lanes(x, 0.0, 1.0) * intervals;
+    Lanes f;
+    for (int l = 0; l < lanes; ++l) {
+        k[l] = std::min(static_cast<int>(t[l]), intervals - 1);
+        f[l] = t[l] - k[l];
+    }
+    const Lanes f2 = f * f, f3 = f2 * f;
+    w[0] = 0.5 * (-f3 + 2.0 * f2 - f);
+    w[1] = 0.5 * (3.0 * f3 - 5.0 * f2 + 2.0);
+    w[2] = 0.5 * (-3.0 * f3 + 4.0 * f2 + f);
+    w[3] = 0.5 * (f3 - f2);
+}
+
+[[gnu::always_inline]] inline Lanes tap_lanes(const double* table, const int k[lanes], int offset, int stride) {
+    Lanes v;
+    for (int l = 0; l < lanes; ++l) v[l] = table[static_cast<std::size_t>(stride) * k[l] + offset];
+    return v;
+}
+
+[[gnu::always_inline]] inline Lanes cubic_table_lanes(const double* table, int points, Lanes x) {
+    int k[lanes];
+    Lanes w[4];
+    cubic_taps_lanes(points, x, k, w);
+    return w[0] * tap_lanes(table, k, 0, 1) + w[1] * tap_lanes(table, k, 1, 1) + w[2] * tap_lanes(table, k, 2, 1) +
+           w[3] * tap_lanes(table, k, 3, 1);
+}
+
+// The cells of one group: their directions' cosines, and which lanes hold a cell above the horizon.
+struct LaneCells {
+    Lanes mu_i, mu_o, cos_phi;
+    bool live[lanes];
+};
+
+// cell_value's multiply scattered part for the live lanes: each lane's taps summed along the orders
+// of its grid nodes (contiguous, as cell_value sums them), then the Fourier sum over a block's
+// orders in all lanes at once.
+template <int C>
+[[gnu::always_inline]] inline void add_orders_lanes(const FillInputs& in, const LaneCells& g, Lanes out[3]) {
+    constexpr int block = C * fill_order_block;
+    const int e = in.grid, mp = padded_orders(in.orders);
+    struct Taps {
+        const double* node[16];
+        double w[16];
+        bool mirrored[16];
+        bool any_mirrored;
+    } taps[lanes];
+    for (int l = 0; l < lanes; ++l) {
+        if (!g.live[l]) continue;
+        const Stencil so = stencil(g.mu_o[l], e), si = stencil(g.mu_i[l], e);
+        Taps& t = taps[l];
+        t.any_mirrored = false;
+        for (int a = 0; a < 4; ++a)
+            for (int b = 0; b < 4; ++b) {
+                t.node[4 * a + b] = &in.fourier[(static_cast<std::size_t>(so.idx[a]) * e + si.idx[b]) * mp * C];
+                t.w[4 * a + b] = so.w[a] * si.w[b];
+                t.mirrored[4 * a + b] = so.ghost[a] != si.ghost[b];
+                t.any_mirrored = t.any_mirrored || t.mirrored[4 * a + b];
+            }
+    }
+    Lanes cm_prev = g.cos_phi, cm = splat(1.0); // cos(-phi) = cos(phi), cos(0)
+    alignas(64) double terms[block][lanes];
+    for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
+        for (int l = 0; l < lanes; ++l) {
+            if (!g.live[l]) {
+                for (int k = 0; k < block; ++k) terms[k][l] = 0.0;
+                continue;
+            }
+            // The block's C x 8 values as C vectors, element k = C j + c (order m0 + j, channel c).
+            const Taps& t = taps[l];
+            Lanes acc[C] = {}, mirrored[C] = {};
+            for (int tap = 0; tap < 16; ++tap) {
+                const double* f = t.node[tap] + static_cast<std::size_t>(m0) * C;
+                for (int q = 0; q < C; ++q) {
+                    Lanes v;
+                    std::memcpy(&v, f + lanes * q, sizeof v);
+                    acc[q] += t.w[tap] * v;
+                }
+            }
+            for (int tap = 0; t.any_mirrored && tap < 16; ++tap) {
+                if (!t.mirrored[tap]) continue;
+                const double* f = t.node[tap] + static_cast<std::size_t>(m0) * C;
+                for (int q = 0; q < C; ++q) {
+                    Lanes v;
+                    std::memcpy(&v, f + lanes * q, sizeof v);
+                    mirrored[q] += t.w[tap] * v;
+                }
+            }
+            for (int q = 0; q < C; ++q)
+                for (int i = 0; i < lanes; ++i) {
+                    const int k = lanes * q + i;
+                    terms[k][l] = (k / C) % 2 == 1 ? acc[q][i] - 2.0 * mirrored[q][i] : acc[q][i];
+                }
+        }
+        for (int j = 0; j < fill_order_block; ++j) {
+            for (int c = 0; c < C; ++c) {
+                Lanes v;
+                std::memcpy(&v, terms[C * j + c], sizeof v);
+                out[c] += v * cm;
+            }
+            const Lanes next = 2.0 * g.cos_phi * cm - cm_prev;
+            cm_prev = cm;
+            cm = next;
+        }
+    }
+}
+
+// add_single_scattering in lanes (term_path and cubic_rgb_table per term).
+[[gnu::always_inline]] inline void add_single_scattering_lanes(const FillInputs& in, const LaneCells& g,
+                                                               Lanes out[3]) {
+    const Lanes sin_i = sqrt_lanes(max0_lanes(1.0 - g.mu_i * g.mu_i));
+    const Lanes sin_o = sqrt_lanes(max0_lanes(1.0 - g.mu_o * g.mu_o));
+    const int kp = in.phase_points, kf = in.fresnel_points, channels = in.channels;
+    for (int s = 0; s < in.samples; ++s) {
+        const double n = in.refractive_index[s], tau = in.tau[s];
+        const double inv_n2 = 1.0 / (n * n);
+        const Lanes ui = sqrt_lanes(1.0 - sin_i * sin_i * inv_n2), uo = sqrt_lanes(1.0 - sin_o * sin_o * inv_n2);
+        const Lanes cos_scatter = clamp_lanes(-uo * ui - sin_o * sin_i * inv_n2 * g.cos_phi, -1.0, 1.0);
+        const double* transmission = &in.transmission[static_cast<std::size_t>(s) * kf];
+        const Lanes factor = cubic_table_lanes(transmission, kf, g.mu_o) * cubic_table_lanes(transmission, kf, g.mu_i);
+        const Lanes slab = std::isinf(tau)
+                               ? splat(1.0)
+                               : per_lane(-tau * (1.0 / uo + 1.0 / ui), [](double x) { return -std::expm1(x); });
+        const Lanes u = sqrt_lanes(0.5 * (1.0 - cos_scatter)) - sqrt_lanes(0.5 * (1.0 + cos_scatter));
+        const Lanes value = factor / (uo + ui) * slab;
+        const Lanes x = 0.5 * (u + 1.0);
+        const double* table = &in.phase[static_cast<std::size_t>(s) * kp * channels];
+        int k[lanes];
+        Lanes w[4];
+        cubic_taps_lanes(kp, x, k, w);
+        Lanes phase[3];
+        for (int c = 0; c < channels; ++c)
+            phase[c] = w[0] * tap_lanes(table, k, c, channels) + w[1] * tap_lanes(table, k, channels + c, channels) +
+                       w[2] * tap_lanes(table, k, 2 * channels + c, channels) +
+                       w[3] * tap_lanes(table, k, 3 * channels + c, channels);
+        if (channels == 1) phase[1] = phase[2] = phase[0];
+        for (int c = 0; c < 3; ++c) out[c] += value * phase[c];
+    }
+}
+
+// lobe_geometry in lanes, D G / (4 mu_i mu_o) times each channel's facet Fresnel factor, added.
+[[gnu::always_inline]] inline void add_lobe_lanes(const FillInputs& in, const LaneCells& g, Lanes out[3]) {
+    const Lanes s_i = sqrt_lanes(max0_lanes((1.0 - g.mu_i) * (1.0 + g.mu_i)));
+    const Lanes s_o = sqrt_lanes(max0_lanes((1.0 - g.mu_o) * (1.0 + g.mu_o)));
+    const Lanes omc = 1.0 + g.cos_phi;
+    const Lanes sum = g.mu_i + g.mu_o;
+    const Lanes t2 = ((s_i - s_o) * (s_i - s_o) + 2.0 * s_i * s_o * omc) / (sum * sum);
+    const double a2 = in.lobe_alpha * in.lobe_alpha;
+    const Lanes sec2 = 1.0 + t2;
+    Lanes d;
+    if (in.lobe == FillInputs::Lobe::Ggx) {
+        const Lanes q = a2 + t2;
+        d = a2 * sec2 * sec2 / (std::numbers::pi * q * q);
+    } else {
+        d = per_lane(-t2 / a2, [](double x) { return std::exp(x); }) * sec2 * sec2 / (std::numbers::pi * a2);
+    }
+    Lanes li, lo;
+    for (int l = 0; l < lanes; ++l) {
+        li[l] = smith_lambda(in.lobe, in.lobe_alpha, g.mu_i[l], s_i[l]);
+        lo[l] = smith_lambda(in.lobe, in.lobe_alpha, g.mu_o[l], s_o[l]);
+    }
+    const Lanes shadowing = in.lobe_separable ? 1.0 / ((1.0 + li) * (1.0 + lo)) : 1.0 / (1.0 + li + lo);
+    const Lanes cos_d = sqrt_lanes(max0_lanes(0.5 * (1.0 + g.mu_i * g.mu_o - s_i * s_o + s_i * s_o * omc)));
+    const Lanes value = d * shadowing / (4.0 * g.mu_i * g.mu_o);
+    for (int c = 0; c < 3; ++c)
+        out[c] = max0_lanes(out[c] + value * cubic_table_lanes(&in.lobe_fresnel[static_cast<std::size_t>(c) * in.lobe_points],
+                                                               in.lobe_points, cos_d));
+}
+
+// One row of the table (theta_h i, theta_d j): its first phi_d half in groups of eight, each cell
+// also written to its mirror (fill_table_reference says why they are equal).
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+fill_row_lanes(const FillInputs& in, int row, const double* sin_phi, const double* cos_phi, formats::BrdfTable& table) {
+    constexpr int bins = formats::phi_d_bins;
+    const int i = row / formats::theta_d_bins, j = row % formats::theta_d_bins;
+    const double theta_h = formats::theta_h_centre(i), theta_d = formats::theta_d_centre(j);
+    const double sh = std::sin(theta_h), ch = std::cos(theta_h), sd = std::sin(theta_d), cd = std::cos(theta_d);
+    const std::uint8_t* below = formats::below_horizon_mask().data();
+    const std::size_t first = static_cast<std::size_t>(row) * bins;
+    for (int k0 = 0; k0 < bins / 2; k0 += lanes) {
+        // formats::to_directions and cell_directions, per lane; lanes past the half repeat its last cell.
+        Lanes sp, cp;
+        LaneCells g;
+        bool any = false;
+        for (int l = 0; l < lanes; ++l) {
+            const int k = std::min(k0 + l, bins / 2 - 1);
+            sp[l] = sin_phi[k];
+            cp[l] = cos_phi[k];
+            g.live[l] = k0 + l < bins / 2 && below[first + k] == 0;
+            any = any || g.live[l];
+        }
+        if (!any) {
+            for (int l = 0; l < lanes && k0 + l < bins / 2; ++l) {
+                table.set_no_data(first + k0 + l);
+                table.set_no_data(first + bins - 1 - (k0 + l));
+            }
+            continue;
+        }
+        const Lanes dx = sd * cp, dy = sd * sp, dz = splat(cd);
+        const Lanes wix = dx * ch + dz * sh, wiy = dy, wiz = -dx * sh + dz * ch;
+        const Lanes mdx = -dx, mdy = -dy;
+        const Lanes wox = mdx * ch + dz * sh, woy = mdy, woz = -mdx * sh + dz * ch;
+        g.mu_i = clamp_lanes(wiz, -1.0, 1.0);
+        g.mu_o = clamp_lanes(woz, -1.0, 1.0);
+        const Lanes horizontal = sqrt_lanes((wix * wix + wiy * wiy) * (wox * wox + woy * woy));
+        g.cos_phi = horizontal > 0.0 ? clamp_lanes((wix * wox + wiy * woy) / horizontal, -1.0, 1.0) : splat(1.0);
+        // cell_value: every live lane has mu_i, mu_o > 0 (above the horizon).
+        Lanes out[3] = {splat(0.0), splat(0.0), splat(0.0)};
+        if (in.orders > 0) {
+            if (in.channels == 1) {
+                add_orders_lanes<1>(in, g, out);
+                out[1] = out[2] = out[0];
+            } else {
+                add_orders_lanes<3>(in, g, out);
+            }
+        }
+        add_single_scattering_lanes(in, g, out);
+        for (Lanes& v : out) v = max0_lanes(v);
+        if (in.lobe != FillInputs::Lobe::None) add_lobe_lanes(in, g, out);
+        for (int l = 0; l < lanes && k0 + l < bins / 2; ++l) {
+            const std::size_t cell = first + k0 + l, mirror = first + bins - 1 - (k0 + l);
+            const Rgb v = g.live[l] ? Rgb{out[0][l], out[1][l], out[2][l]}
+                                    : Rgb{formats::BrdfTable::no_data, formats::BrdfTable::no_data,
+                                          formats::BrdfTable::no_data};
+            table.set(cell, v);
+            table.set(mirror, v);
+        }
+    }
+}
+
+} // namespace
+
+formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
+    formats::BrdfTable table(formats::BrdfTable::Unwritten{}); // every cell is written below
+    std::array<double, formats::phi_d_bins> sin_phi{}, cos_phi{};
+    for (int k = 0; k < formats::phi_d_bins; ++k) {
+        sin_phi[k] = std::sin(formats::phi_d_centre(k));
+        cos_phi[k] = std::cos(formats::phi_d_centre(k));
+    }
+    const int rows = formats::theta_h_bins * formats::theta_d_bins;
+    parallel_for(rows, threads, [&](int row) { fill_row_lanes(in, row, sin_phi.data(), cos_phi.data(), table); });
     return table;
 }
 
