@@ -154,7 +154,7 @@ public:
 
     /// w(x) Q(x); leaves the coefficients in last_coefficients().
     Sums at(double x) {
-        coefficients(m_m, x, m_coef);
+        coefficients(m_m, x, m_coef, m_series);
         ++m_evaluations;
         const Efficiencies q = efficiencies(m_coef);
         const double w = weight(x);
@@ -164,11 +164,21 @@ public:
     const Coefficients& last_coefficients() const { return m_coef; }
     long evaluations() const { return m_evaluations; }
 
+    /// integrate()'s working storage, reused from panel to panel (mie.h, SeriesWork, says why not
+    /// thread_local): a rule's nodes and weights, a panel's 15 spheres, the intensity sums' terms.
+    struct PanelWork {
+        std::vector<double> x, w, accumulate;
+        std::vector<Coefficients> coefficients = std::vector<Coefficients>(15);
+    };
+    PanelWork& panel_work() { return m_panel; }
+
 private:
     Complex m_m;
     double m_k;
     const SizeDistribution& m_sizes;
     Coefficients m_coef;
+    SeriesWork m_series;
+    PanelWork m_panel;
     long m_evaluations = 0;
 };
 
@@ -196,13 +206,15 @@ Leaf integrate(Integrand& f, const Panel& p, const PhaseFunctionAccumulator& pha
               std::vector<double>(phase.pairs(), 0.0), 0.0};
     const double lo = p.lo(), hi = p.hi();
     const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+    Integrand::PanelWork& work = f.panel_work();
     if (p.rule != kronrod) {
-        thread_local std::vector<double> x, w;
+        std::vector<double>& x = work.x;
+        std::vector<double>& w = work.w;
         panel_nodes(p, 1, x, w);
         for (std::size_t i = 0; i < x.size(); ++i) {
             leaf.value += f.at(x[i]).scaled(w[i]);
             phase.accumulate(f.last_coefficients(), w[i] * f.density(x[i]), leaf.plus.data(),
-                             leaf.minus.data());
+                             leaf.minus.data(), work.accumulate);
         }
         return leaf;
     }
@@ -216,7 +228,7 @@ Leaf integrate(Integrand& f, const Panel& p, const PhaseFunctionAccumulator& pha
         double density;  // n(x) dx/dt
     };
     Node nodes[15];
-    thread_local std::vector<Coefficients> coefficients(15);
+    std::vector<Coefficients>& coefficients = work.coefficients;
     int count = 0;
     const auto term = [&](double t, double kw, double gw) {
         const double s = mid + half * t, x = p.x_at(s), jacobian = half * p.jacobian(s);
@@ -252,7 +264,7 @@ Leaf integrate(Integrand& f, const Panel& p, const PhaseFunctionAccumulator& pha
         const double w = gauss_enough ? nodes[i].gauss : nodes[i].kronrod;
         if (w != 0.0)
             phase.accumulate(coefficients[i], w * nodes[i].density, leaf.plus.data(),
-                             leaf.minus.data());
+                             leaf.minus.data(), work.accumulate);
     }
     return leaf;
 }
@@ -605,7 +617,7 @@ public:
     void add(const Coefficients& c, double weight) {
         std::size_t g = 0;
         while (g + 1 < m_rules.size() && m_rules[g + 1]->max_terms() >= c.size()) ++g;
-        m_rules[g]->accumulate(c, weight, m_sums[g].plus.data(), m_sums[g].minus.data());
+        m_rules[g]->accumulate(c, weight, m_sums[g].plus.data(), m_sums[g].minus.data(), m_work);
     }
     void scale(double factor) {
         for (Sums2& s : m_sums) {
@@ -643,6 +655,7 @@ public:
 private:
     std::vector<std::unique_ptr<PhaseFunctionAccumulator>> m_rules;
     State m_sums;
+    std::vector<double> m_work; ///< accumulate()'s working storage
 };
 
 /// Truncates moments as LegendreOptions says (the same rule as PhaseFunctionAccumulator::legendre).
@@ -786,6 +799,7 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     GroupedIntensities intensities(series_length(x_intensity_max));
     double skipped = 0.0; // share of <Csca> without intensities (um^2, at this step)
     Coefficients c;
+    SeriesWork work;
     const auto add_intensities = [&](const std::vector<Node>& nodes, double step) {
         for (const Node& n : nodes) {
             const double end = (n.s == 0.0 || n.s == 1.0) ? 0.5 : 1.0;
@@ -794,7 +808,7 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
                 skipped += step * end * n.value.sca;
                 continue;
             }
-            coefficients(m, n.x, c);
+            coefficients(m, n.x, c, work);
             intensities.add(c, step * end * n.weight_density * f.density(n.x));
         }
     };

@@ -63,8 +63,9 @@ std::string format_index(Complex m) {
 // one loop (two independent division chains the processor overlaps), and with A, B real
 // a_n = A / (A - iB) = A (A + iB) / (A^2 + B^2), scaled by max(|A|, |B|) so that nothing overflows.
 // The absorption is exactly 0.
-void coefficients_real(double m, double x, int n_terms, Coefficients& out) {
-    thread_local std::vector<double> ez, ex;
+void coefficients_real(double m, double x, int n_terms, Coefficients& out, SeriesWork& work) {
+    std::vector<double>& ez = work.ez_real;
+    std::vector<double>& ex = work.ex;
     ez.resize(n_terms + 1);
     ex.resize(n_terms + 1);
     const double z = m * x;
@@ -146,6 +147,11 @@ Coefficients coefficients(Complex m, double x) {
 }
 
 void coefficients(Complex m, double x, Coefficients& out) {
+    SeriesWork work;
+    coefficients(m, x, out, work);
+}
+
+void coefficients(Complex m, double x, Coefficients& out, SeriesWork& work) {
     validate(m, x);
     const int n_terms = series_length(x);
     out.m = m;
@@ -155,12 +161,12 @@ void coefficients(Complex m, double x, Coefficients& out) {
     out.absorption.resize(n_terms);
 
     if (m.imag() == 0.0) {
-        coefficients_real(m.real(), x, n_terms, out);
+        coefficients_real(m.real(), x, n_terms, out, work);
         return;
     }
     // E_n(mx) and E_n(x).
-    thread_local std::vector<Complex> ez;
-    thread_local std::vector<double> ex;
+    std::vector<Complex>& ez = work.ez;
+    std::vector<double>& ex = work.ex;
     const Complex z = m * x;
     shifted_log_derivatives(z, n_terms, start_index(n_terms, std::abs(z)), ez);
     shifted_log_derivatives(x, n_terms, start_index(n_terms, x), ex);

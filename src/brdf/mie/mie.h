@@ -52,7 +52,19 @@ struct Coefficients {
 
 /// Computes a_n, b_n for n = 1 .. series_length(x). Validates m and x (see validate()).
 Coefficients coefficients(std::complex<double> m, double x);
-/// Same, reusing the storage of `out` (the size-distribution loop calls this per radius).
+/// Working storage of coefficients() (the log-derivative series E_n of m x and x), kept by a caller
+/// that computes many spheres: the size-distribution loops call it per radius, 10^4-10^5 times per
+/// material. Held by the caller rather than in thread_local storage: a thread's first use of a
+/// thread_local with a destructor registers it under glibc's loader lock, which a dlopen in another
+/// thread (PoCL loading its compiler: ~40 ms) holds throughout (docs/mie.md, "Scratch storage").
+struct SeriesWork {
+    std::vector<std::complex<double>> ez;
+    std::vector<double> ez_real, ex;
+};
+
+/// Same, reusing the storage of `out` and of `work`.
+void coefficients(std::complex<double> m, double x, Coefficients& out, SeriesWork& work);
+/// Same, reusing the storage of `out`.
 void coefficients(std::complex<double> m, double x, Coefficients& out);
 
 /// Efficiencies (cross section / pi r^2) and asymmetry parameter.

@@ -228,7 +228,7 @@ void PhaseFunctionAccumulator::clear() {
 }
 
 void PhaseFunctionAccumulator::add(const Coefficients& c, double weight) {
-    accumulate(c, weight, m_plus.data(), m_minus.data());
+    accumulate(c, weight, m_plus.data(), m_minus.data(), m_work);
 }
 
 void PhaseFunctionAccumulator::add_sums(const std::vector<double>& plus,
@@ -243,6 +243,12 @@ void PhaseFunctionAccumulator::add_sums(const std::vector<double>& plus,
 
 void PhaseFunctionAccumulator::accumulate(const Coefficients& c, double weight, double* plus,
                                           double* minus) const {
+    std::vector<double> work;
+    accumulate(c, weight, plus, minus, work);
+}
+
+void PhaseFunctionAccumulator::accumulate(const Coefficients& c, double weight, double* plus, double* minus,
+                                          std::vector<double>& coef) const {
     const int n_terms = c.size();
     if (n_terms > m_max_terms)
         throw InputError(cat("phase function: series of ", n_terms, " terms exceeds the ",
@@ -251,7 +257,6 @@ void PhaseFunctionAccumulator::accumulate(const Coefficients& c, double weight, 
         throw InputError(cat("phase function: weight ", weight, " must be finite and >= 0"));
     if (weight == 0.0) return;
     const std::size_t half = m_mu.size();
-    thread_local std::vector<double> coef;
     coef.resize(per_order * static_cast<std::size_t>(n_terms));
     for (int n = 1; n <= n_terms; ++n) {
         const double* r = m_recurrence.data() + 4 * (n - 1); // c_n, n, n + 1, (2n+1)/n, (n+1)/n
@@ -291,7 +296,7 @@ double PhaseFunctionAccumulator::integral() const {
 
 std::vector<double> PhaseFunctionAccumulator::project(std::size_t half, int l_last, double total) const {
     const std::size_t orders = static_cast<std::size_t>(l_last) + 1;
-    thread_local std::vector<double> recurrence, sums;
+    std::vector<double> recurrence, sums; // once per ensemble
     recurrence.assign(2 * (orders + 1), 0.0);
     for (std::size_t l = 1; l < orders; ++l) {
         recurrence[2 * l] = (2.0 * l + 1.0) / (l + 1.0);

@@ -41,7 +41,10 @@ public:
     /// Number of node pairs +-mu_j (max_terms() + 1): the size of partial sums.
     std::size_t pairs() const { return m_mu.size(); }
     /// Like add(), into caller-owned partial sums of I(+mu_j) and I(-mu_j) (each pairs() long), for
-    /// integrations that decide later which evaluations to keep. Thread-safe.
+    /// integrations that decide later which evaluations to keep. Thread-safe. `work` is the
+    /// caller's working storage, reused from call to call (mie.h, SeriesWork, says why not
+    /// thread_local); the overload without it allocates its own.
+    void accumulate(const Coefficients& c, double weight, double* plus, double* minus, std::vector<double>& work) const;
     void accumulate(const Coefficients& c, double weight, double* plus, double* minus) const;
     /// The Gauss weights of the positive nodes (those of -mu_j are the same), pairs() long.
     const std::vector<double>& weights() const { return m_weight; }
@@ -70,6 +73,7 @@ private:
     std::vector<double> m_plus;   ///< accumulated I(+mu_j)
     std::vector<double> m_minus;  ///< accumulated I(-mu_j)
     std::vector<double> m_recurrence; ///< per order: c_n, (2n+1)/n, (n+1)/n, unused
+    std::vector<double> m_work;       ///< add()'s working storage for accumulate()
 };
 
 } // namespace brdf::mie

@@ -42,7 +42,7 @@ struct PsiValue {
 };
 
 PsiValue psi_value(double x, int n) {
-    thread_local std::vector<double> e;
+    std::vector<double> e; // a call costs n logarithms: its allocation is nothing beside them
     detail::shifted_log_derivatives(x, n, detail::start_index(n, x), e);
     PsiValue p;
     const double s = std::sin(x);
@@ -97,7 +97,7 @@ void sample_modes(double m, double x, int n_max, ModeSample& out) {
     out.zeros.assign(n_max + 1, 0);
     out.positive.assign(n_max + 1, 0);
     const double z = m * x;
-    thread_local std::vector<double> e;
+    std::vector<double> e; // beside out's own two
     detail::shifted_log_derivatives(z, n_max, detail::start_index(n_max, z), e);
     int zeros = static_cast<int>(std::floor(z / std::numbers::pi));
     out.zeros[0] = zeros;

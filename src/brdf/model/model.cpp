@@ -619,15 +619,16 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     rs.method = st.method;
     rs.control.tolerance = st.solver_tolerance;
 
-    // 0. The OpenCL device opens on one core (PoCL loads its compiler, LLVM: ~40 ms here), meant to
-    // overlap the optics. It overlaps less than that: glibc's dynamic loader holds its locks for the
-    // whole load, and a thread started meanwhile (pthread_create sets up its TLS under the loader's
-    // TLS lock) or a thread_local with a destructor first used meanwhile (registered under the
-    // loader's lock: Mie's scratch vectors) waits for it. What overlaps is the work before the
-    // first of those: reading the spec and the Mie ensembles on disk (strace -k: a new seed's first
-    // parallel loop waited 45 ms). A failure is left to the first solve (solve_stacks), which opens
-    // it again and raises the error as before.
+    // 0. The OpenCL device opens on one core (PoCL loads its compiler, LLVM: ~40 ms here) while the
+    // optics run. glibc's dynamic loader holds its locks for the whole load: a thread started
+    // meanwhile waits for it (pthread_create sets up the thread's TLS under the loader's lock), and
+    // so does a thread's first use of a thread_local with a destructor (registered under it). So
+    // the worker threads start first, and Mie keeps its scratch in the caller's hands (mie.h,
+    // SeriesWork); with threads per loop, a new seed's first parallel loop had waited 45 ms
+    // (strace -k). A failure is left to the first solve (solve_stacks), which opens it again and
+    // raises the error as before.
     std::future<void> device_opening;
+    if (device == Device::OpenCL) start_worker_threads();
     if (device == Device::OpenCL)
         device_opening = std::async(std::launch::async, [] {
             try {
