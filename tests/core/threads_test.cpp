@@ -72,7 +72,8 @@ TEST(ParallelFor, MoreThreadsThanCpusRunAtOnce) {
     parallel_for(n, n, [&](int) {
         ++started;
         const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-        while (started.load() < n && std::chrono::steady_clock::now() < until) std::this_thread::yield();
+        while (started.load() < n && std::chrono::steady_clock::now() < until)
+            std::this_thread::yield();
         all_met += started.load() == n;
     });
     EXPECT_EQ(all_met.load(), n);

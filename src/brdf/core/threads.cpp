@@ -36,7 +36,7 @@ namespace {
 // The process's worker threads and the loops they may join. Never destroyed: the workers wait for
 // loops until the process ends (a loop run by a static destructor still finds them).
 class Workers {
-public:
+  public:
     static Workers& shared() {
         static Workers* const workers = new Workers(available_cpus() - 1);
         return *workers;
@@ -59,7 +59,7 @@ public:
         m_left.wait(lock, [&] { return loop.threads == 1; });
     }
 
-private:
+  private:
     explicit Workers(int count) {
         for (int t = 0; t < count; ++t) {
             try {

@@ -1,7 +1,8 @@
 #pragma once
-// Threads: how many to run, and the one parallel loop every stage uses (wavelengths, Fourier orders,
-// table rows, image rows). Work items are independent and each writes only its own results, so the
-// output does not depend on the thread count or scheduling (tables are byte-identical run to run).
+// Threads: how many to run, and the one parallel loop every stage uses (wavelengths, Fourier
+// orders, table rows, image rows). Work items are independent and each writes only its own results,
+// so the output does not depend on the thread count or scheduling (tables are byte-identical run to
+// run).
 //
 // The loops run on worker threads started once per process (available_cpus() - 1 of them, the
 // calling thread making up the last), not on threads started per loop: a seed material runs ~70
@@ -16,8 +17,8 @@
 
 namespace brdf {
 
-/// CPUs in this process's affinity mask (>= 1), not the machine's online cores: a Slurm task given 4
-/// CPUs of a 64-core node, or a container with a CPU set, runs 4 threads rather than 64.
+/// CPUs in this process's affinity mask (>= 1), not the machine's online cores: a Slurm task given
+/// 4 CPUs of a 64-core node, or a container with a CPU set, runs 4 threads rather than 64.
 int available_cpus();
 
 /// Starts the worker threads if they are not running yet (the first parallel loop starts them
@@ -47,10 +48,10 @@ void run_parallel_loop(ParallelLoop& loop);
 
 } // namespace detail
 
-/// body(k) for k = 0 .. count - 1 on min(threads, count) threads (available_cpus() when threads <= 0),
-/// the calling thread included. The first exception stops the loop and is rethrown here once every
-/// thread has left it. Loops may nest (a body may run a loop): a thread waits only for items that
-/// other threads are running, never for a worker to become free.
+/// body(k) for k = 0 .. count - 1 on min(threads, count) threads, the calling thread included
+/// (threads <= 0: available_cpus()). The first exception stops the loop and is rethrown here once
+/// every thread has left it. Loops may nest (a body may run a loop): a thread waits only for items
+/// that other threads are running, never for a worker to become free.
 template <typename Body> void parallel_for(int count, int threads, const Body& body) {
     if (count <= 0) return;
     if (threads <= 0) threads = available_cpus();

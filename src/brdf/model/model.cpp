@@ -628,14 +628,15 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     // (strace -k). A failure is left to the first solve (solve_stacks), which opens it again and
     // raises the error as before.
     std::future<void> device_opening;
-    if (device == Device::OpenCL) start_worker_threads();
-    if (device == Device::OpenCL)
+    if (device == Device::OpenCL) {
+        start_worker_threads();
         device_opening = std::async(std::launch::async, [] {
             try {
                 cl::Context::shared();
             } catch (...) {
             }
         });
+    }
 
     // 1. Optics per wavelength (or per channel of an analytic material), every layer.
     auto t0 = std::chrono::steady_clock::now();
