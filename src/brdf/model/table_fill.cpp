@@ -38,9 +38,10 @@ constexpr int fresnel_table_points = fresnel_table_intervals + 3;
 // each end keeps the end intervals cubic too.
 constexpr int lobe_fresnel_intervals = 2048;
 
-// Catmull-Rom weights for fractional position f in [0, 1) between taps 0 and 1 of (-1, 0, 1, 2).
-void catmull_rom(double f, double w[4]) {
-    const double f2 = f * f, f3 = f2 * f;
+// Catmull-Rom weights for fractional position f in [0, 1) between taps 0 and 1 of (-1, 0, 1, 2); T
+// is double, or a vector of lanes (the fill in lanes below).
+template <typename T> [[gnu::always_inline]] inline void catmull_rom(T f, T w[4]) {
+    const T f2 = f * f, f3 = f2 * f;
     w[0] = 0.5 * (-f3 + 2.0 * f2 - f);
     w[1] = 0.5 * (3.0 * f3 - 5.0 * f2 + 2.0);
     w[2] = 0.5 * (-3.0 * f3 + 4.0 * f2 + f);
@@ -725,11 +726,7 @@ template <typename F> [[gnu::always_inline]] inline Lanes per_lane(Lanes v, F f)
         k[l] = std::min(static_cast<int>(t[l]), intervals - 1);
         f[l] = t[l] - k[l];
     }
-    const Lanes f2 = f * f, f3 = f2 * f;
-    w[0] = 0.5 * (-f3 + 2.0 * f2 - f);
-    w[1] = 0.5 * (3.0 * f3 - 5.0 * f2 + 2.0);
-    w[2] = 0.5 * (-3.0 * f3 + 4.0 * f2 + f);
-    w[3] = 0.5 * (f3 - f2);
+    catmull_rom(f, w);
 }
 
 [[gnu::always_inline]] inline Lanes tap_lanes(const double* table, const int k[lanes], int offset, int stride) {
