@@ -124,11 +124,17 @@ struct ProbeOrders {
 // `checked` receives the stream counts solved, in order. `probe_seconds`: the wall time of the
 // batch that solved the probes at the chosen count. `kept` (one entry per stack) receives the
 // probes' solutions at the chosen count, which are what the batch would make of them: each order
-// problem is solved on its own, whatever else is in the batch. Not under a rough top, where the
-// batch shares one family of interface kernels over all its samples (solve_stacks), which the
-// probes' own family only approximates.
+// problem is solved on its own, whatever else is in the batch, to the solver's tolerance on either
+// device. Not under a rough top, where the batch shares one family of interface kernels over all
+// its samples (solve_stacks), which the probes' own family only approximates.
+//
+// The probes are solved on the host whatever the device: batches of one or two stacks are latency,
+// not throughput (an OpenCL launch, its buffers and transfers cost more than the solve), and the
+// check then runs while the OpenCL device is still opening (solve_material, step 0). The seed
+// material's check took 75 ms on PoCL, 34 ms of it after the device had opened, against 21 ms on
+// the host.
 int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<rte::Stack>& stacks,
-                   const rte::ReflectionSettings& rs, const NumericalSettings& st, Device device, double& estimate,
+                   const rte::ReflectionSettings& rs, const NumericalSettings& st, double& estimate,
                    double& probe_seconds, std::vector<std::optional<rte::Reflection>>& kept,
                    std::vector<int>& checked, ProbeOrders& orders) {
     // The probes of one stream count in one batch (one probe per core).
@@ -138,7 +144,7 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
         std::vector<rte::Stack> batch;
         for (std::size_t k : which) batch.push_back(stacks[k]);
         const auto t0 = std::chrono::steady_clock::now();
-        std::vector<rte::Reflection> out = solve_stacks(batch, at, device);
+        std::vector<rte::Reflection> out = solve_stacks(batch, at, Device::Cpu);
         return std::pair{std::move(out), seconds_since(t0)};
     };
     // The hardest samples: the most forward-peaked phase function and the highest albedo of any layer.
@@ -659,7 +665,7 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     std::vector<std::optional<rte::Reflection>> kept;
     ProbeOrders orders;
     if (st.fit_orders) orders.threshold = 0.1 * st.order_tolerance;
-    rs.streams = choose_streams(optics, stacks, rs, st, device, out.error_estimate, probe_seconds, kept,
+    rs.streams = choose_streams(optics, stacks, rs, st, out.error_estimate, probe_seconds, kept,
                                 out.checked_streams, orders);
     out.settings.streams = rs.streams;
     if (note) {
