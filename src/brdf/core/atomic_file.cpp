@@ -16,6 +16,9 @@ namespace {
 
 std::string reason(int error) { return std::generic_category().message(error); }
 
+// Writes from this size on start their write-back at once (write_at).
+constexpr std::size_t writeback_hint_bytes = std::size_t{1} << 16;
+
 std::filesystem::path folder_of(const std::filesystem::path& target) {
     return target.has_parent_path() ? target.parent_path() : std::filesystem::path(".");
 }
@@ -65,6 +68,15 @@ void AtomicFile::write_at(std::uint64_t offset, const void* data, std::size_t n)
         }
         done += static_cast<std::size_t>(k);
     }
+#ifdef __linux__
+    // Start the range's write-back now, without waiting for it (a hint: its failure is fsync's to
+    // report), so that commit()'s fsync finds the data on its way to the disk rather than starting
+    // it: a 35 MB MERL table's fsync took 17-19 ms after its last write, 0.3 ms with this, and an
+    // HG table's `compute` 0.157 -> 0.150 s (docs/benchmarks.md). As PostgreSQL's
+    // backend_flush_after and RocksDB's bytes_per_sync do.
+    if (n >= writeback_hint_bytes)
+        ::sync_file_range(m_fd, static_cast<off64_t>(offset), static_cast<off64_t>(n), SYNC_FILE_RANGE_WRITE);
+#endif
     for (std::uint64_t end = m_end.load(); end < offset + n && !m_end.compare_exchange_weak(end, offset + n);) {
     }
 }

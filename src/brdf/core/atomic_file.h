@@ -44,7 +44,8 @@ public:
     /// Appends `data` at the end of what write() has written so far.
     void write(std::string_view data);
     /// Writes all `n` bytes at `offset` (pwrite: does not move write()'s position). Several threads
-    /// may write disjoint ranges at once.
+    /// may write disjoint ranges at once. On Linux a write of 64 KiB or more starts its write-back
+    /// to the disk (sync_file_range), so that a durable commit waits for less.
     void write_at(std::uint64_t offset, const void* data, std::size_t n);
     /// What commit() makes sure of: Durable, that the new file survives a power loss; Atomic, only
     /// that it replaces the target at once (a cache, whose reader checks what it reads).
