@@ -370,5 +370,38 @@ TEST(MieInputs, RejectsInvalidValuesNamingThem) {
                                             "tolerance");
 }
 
+// Spheres in a batch (coefficients over a span: a real index runs eight to a vector) get the bits
+// each gets alone: every term of a, b and the absorption, for indices above and below 1, sizes from
+// the Rayleigh range to thousands of terms mixed in one batch (each lane its own term count and
+// recurrence start), a batch that is not a multiple of eight, and an absorbing index (one by one).
+TEST(MieCoefficients, BatchEqualsOneByOne) {
+    std::mt19937 rng(12);
+    std::uniform_real_distribution<double> decades(-6.0, 3.5);
+    for (std::complex<double> m : {std::complex<double>(1.8), std::complex<double>(0.75), std::complex<double>(1.001),
+                                   std::complex<double>(2.9 / 1.49), std::complex<double>(1.5, 0.01)}) {
+        std::vector<double> x;
+        for (int i = 0; i < 29; ++i) x.push_back(std::pow(10.0, decades(rng)));
+        x.push_back(x.front()); // the same sphere twice in one batch
+        std::vector<Coefficients> batch(x.size());
+        SeriesWork work;
+        coefficients(m, x, batch, work);
+        for (std::size_t i = 0; i < x.size(); ++i) {
+            const Coefficients one = coefficients(m, x[i]);
+            ASSERT_EQ(batch[i].size(), one.size()) << "m " << m << " x " << x[i];
+            EXPECT_EQ(batch[i].x, one.x);
+            for (int n = 0; n < one.size(); ++n) {
+                ASSERT_EQ(batch[i].a[n], one.a[n]) << "m " << m << " x " << x[i] << " a_" << n + 1;
+                ASSERT_EQ(batch[i].b[n], one.b[n]) << "m " << m << " x " << x[i] << " b_" << n + 1;
+                ASSERT_EQ(batch[i].absorption[n], one.absorption[n]) << "m " << m << " x " << x[i];
+            }
+        }
+    }
+    // Invalid input is refused as one by one; mismatched spans are an internal error.
+    std::vector<Coefficients> two(2);
+    SeriesWork work;
+    EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{1.0, -1.0}, two, work), InputError);
+    EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{1.0}, two, work), InternalError);
+}
+
 } // namespace
 } // namespace brdf::mie

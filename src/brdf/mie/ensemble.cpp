@@ -156,9 +156,14 @@ public:
     Sums at(double x) {
         coefficients(m_m, x, m_coef, m_series);
         ++m_evaluations;
-        const Efficiencies q = efficiencies(m_coef);
-        const double w = weight(x);
-        return {w * q.qext, w * q.qsca, w * q.qabs, w * q.qback, w * q.qsca * q.g};
+        return weighted(m_coef);
+    }
+    /// at(x[i]) for every i, the coefficients into `c` (the same size), all computed at once
+    /// (mie.h: a real index runs eight spheres side by side), the same bits as at() one by one.
+    void at(std::span<const double> x, std::span<Coefficients> c, std::span<Sums> out) {
+        coefficients(m_m, x, c, m_series);
+        m_evaluations += static_cast<long>(x.size());
+        for (std::size_t i = 0; i < x.size(); ++i) out[i] = weighted(c[i]);
     }
 
     const Coefficients& last_coefficients() const { return m_coef; }
@@ -169,10 +174,17 @@ public:
     struct PanelWork {
         std::vector<double> x, w, accumulate;
         std::vector<Coefficients> coefficients = std::vector<Coefficients>(15);
+        std::vector<Sums> sums;
     };
     PanelWork& panel_work() { return m_panel; }
 
 private:
+    Sums weighted(const Coefficients& c) const {
+        const Efficiencies q = efficiencies(c);
+        const double w = weight(c.x);
+        return {w * q.qext, w * q.qsca, w * q.qabs, w * q.qback, w * q.qsca * q.g};
+    }
+
     Complex m_m;
     double m_k;
     const SizeDistribution& m_sizes;
@@ -211,10 +223,13 @@ Leaf integrate(Integrand& f, const Panel& p, const PhaseFunctionAccumulator& pha
         std::vector<double>& x = work.x;
         std::vector<double>& w = work.w;
         panel_nodes(p, 1, x, w);
+        if (work.coefficients.size() < x.size()) work.coefficients.resize(x.size());
+        work.sums.resize(x.size());
+        const std::span<Coefficients> c(work.coefficients.data(), x.size());
+        f.at(x, c, work.sums);
         for (std::size_t i = 0; i < x.size(); ++i) {
-            leaf.value += f.at(x[i]).scaled(w[i]);
-            phase.accumulate(f.last_coefficients(), w[i] * f.density(x[i]), leaf.plus.data(),
-                             leaf.minus.data(), work.accumulate);
+            leaf.value += work.sums[i].scaled(w[i]);
+            phase.accumulate(c[i], w[i] * f.density(x[i]), leaf.plus.data(), leaf.minus.data(), work.accumulate);
         }
         return leaf;
     }
@@ -227,13 +242,15 @@ Leaf integrate(Integrand& f, const Panel& p, const PhaseFunctionAccumulator& pha
         double gauss;    // Gauss weight, 0 for a Kronrod-only node
         double density;  // n(x) dx/dt
     };
+    // The fifteen nodes' spheres first, then their coefficients at once (mie.h).
     Node nodes[15];
-    std::vector<Coefficients>& coefficients = work.coefficients;
+    double xs[15], jacobians[15];
     int count = 0;
     const auto term = [&](double t, double kw, double gw) {
-        const double s = mid + half * t, x = p.x_at(s), jacobian = half * p.jacobian(s);
-        nodes[count] = {f.at(x).scaled(jacobian), kw, gw, f.density(x) * jacobian};
-        coefficients[count] = f.last_coefficients();
+        const double s = mid + half * t;
+        xs[count] = p.x_at(s);
+        jacobians[count] = half * p.jacobian(s);
+        nodes[count] = {{}, kw, gw, f.density(xs[count]) * jacobians[count]};
         ++count;
     };
     for (int i = 0; i < 7; ++i) {
@@ -242,6 +259,11 @@ Leaf integrate(Integrand& f, const Panel& p, const PhaseFunctionAccumulator& pha
         term(kronrod_x[i], kronrod_w[i], gw);
     }
     term(0.0, kronrod_w[7], gauss_w[3]);
+    if (work.coefficients.size() < 15) work.coefficients.resize(15);
+    const std::span<Coefficients> coefficients(work.coefficients.data(), 15);
+    Sums values[15];
+    f.at(xs, coefficients, values);
+    for (int i = 0; i < count; ++i) nodes[i].value = values[i].scaled(jacobians[i]);
     Sums gauss;
     for (const Node& n : nodes) {
         leaf.value += n.value.scaled(n.kronrod);

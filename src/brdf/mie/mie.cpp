@@ -44,6 +44,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <type_traits>
 
 namespace brdf::mie {
@@ -113,6 +114,100 @@ void coefficients_real(double m, double x, int n_terms, Coefficients& out, Serie
     }
 }
 
+// coefficients_real for eight spheres of one index at once, sphere l in lane l of GCC vectors
+// (lowered to the clone's registers): every operation of coefficients_real element by element and
+// in its order, so each sphere's coefficients are its own bits; where a lane's sphere has fewer
+// terms or starts its recurrence lower, the lane's values are kept (select) or not stored. A
+// sphere's two downward recurrences are chains of divisions, each waiting for the one before: one
+// sphere at a time left the divider mostly idle; eight chains side by side keep it busy. Nothing
+// here allocates or throws (GCC 12 takes a target_clones function for one that does not throw and
+// skips its callers' cleanups: linalg.cpp): the caller sizes `out` and the lanes' E_n storage,
+// ez and ex, (terms + 1) x 8 values each.
+#pragma GCC diagnostic ignored "-Wpsabi" // vectors pass only to functions inlined into the clones
+
+constexpr int mie_lanes = 8;
+using Lanes = double __attribute__((vector_size(8 * mie_lanes)));
+
+[[gnu::always_inline]] inline Lanes splat(double v) { return Lanes{} + v; }
+[[gnu::always_inline]] inline Lanes abs_lanes(Lanes v) { // std::abs per lane: the sign bit cleared
+    using Bits = unsigned long long __attribute__((vector_size(8 * mie_lanes)));
+    Bits b;
+    std::memcpy(&b, &v, sizeof b);
+    b &= 0x7fffffffffffffffULL;
+    std::memcpy(&v, &b, sizeof v);
+    return v;
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (&n_terms)[mie_lanes], int count,
+                             Coefficients* const (&out)[mie_lanes], double* ez, double* ex) noexcept {
+    Lanes start_z, start_x, zinv, xinv;
+    int top = 0, terms = 0;
+    for (int l = 0; l < mie_lanes; ++l) {
+        const double z = m * x[l];
+        const int sz = start_index(n_terms[l], z), sx = start_index(n_terms[l], x[l]);
+        start_z[l] = sz;
+        start_x[l] = sx;
+        zinv[l] = 1.0 / z;
+        xinv[l] = 1.0 / x[l];
+        top = std::max({top, sz, sx});
+        terms = std::max(terms, n_terms[l]);
+    }
+    Lanes e_z = splat(0.0), e_x = splat(0.0);
+    for (int n = top; n >= 1; --n) {
+        const Lanes order = splat(2.0 * n + 1.0), at = splat(n);
+        Lanes ratio_z = order * zinv + e_z;
+        ratio_z = ratio_z == 0.0 ? splat(1e-300) : ratio_z;
+        Lanes ratio_x = order * xinv + e_x;
+        ratio_x = ratio_x == 0.0 ? splat(1e-300) : ratio_x;
+        if (n <= terms) { // read back only where n <= the lane's own terms (< its starts)
+            std::memcpy(ez + mie_lanes * n, &e_z, sizeof e_z);
+            std::memcpy(ex + mie_lanes * n, &e_x, sizeof e_x);
+        }
+        e_z = at <= start_z ? -1.0 / ratio_z : e_z;
+        e_x = at <= start_x ? -1.0 / ratio_x : e_x;
+    }
+    const double minv = 1.0 / m, minv2 = minv * minv;
+    const double one_minus_m2_over_m2 = (1.0 - m) * (1.0 + m) * minv2;
+    Lanes sinx, cosx;
+    for (int l = 0; l < mie_lanes; ++l) sinx[l] = std::sin(x[l]), cosx[l] = std::cos(x[l]);
+    Lanes psi_prev = sinx, chi_prev2 = -sinx, chi_prev = cosx;
+    // coefficient_real's a / (a - ib), scaled by max(|a|, |b|) (std::max: the first unless it is less).
+    const auto coefficient = [](Lanes a, Lanes b, Lanes& re, Lanes& im) {
+        const Lanes abs_a = abs_lanes(a), abs_b = abs_lanes(b);
+        const Lanes s = abs_a < abs_b ? abs_b : abs_a;
+        const Lanes ar = a / s, br = b / s, t = ar / (ar * ar + br * br);
+        re = ar * t;
+        im = br * t;
+    };
+    for (int n = 1; n <= terms; ++n) {
+        Lanes e, e_x_n;
+        std::memcpy(&e, ez + mie_lanes * n, sizeof e);
+        std::memcpy(&e_x_n, ex + mie_lanes * n, sizeof e_x_n);
+        const Lanes ratio = splat(2.0 * n + 1.0) * xinv + e_x_n;
+        const Lanes psi = psi_prev / ratio;
+        const Lanes chi = splat(2 * n - 1) * xinv * chi_prev - chi_prev2;
+        const Lanes za = e * minv + splat(n + 1.0) * xinv * minv2 + splat(n) * xinv;
+        const Lanes zb = m * e + splat(2.0 * n + 1.0) * xinv;
+        const Lanes num_a = psi * (e * minv - e_x_n + splat(n + 1.0) * xinv * one_minus_m2_over_m2);
+        const Lanes num_b = psi * (m * e - e_x_n);
+        Lanes a_re, a_im, b_re, b_im;
+        coefficient(num_a, za * chi - chi_prev, a_re, a_im);
+        coefficient(num_b, zb * chi - chi_prev, b_re, b_im);
+        for (int l = 0; l < count; ++l)
+            if (n <= n_terms[l]) {
+                out[l]->a[n - 1] = Complex(a_re[l], a_im[l]);
+                out[l]->b[n - 1] = Complex(b_re[l], b_im[l]);
+                out[l]->absorption[n - 1] = 0.0;
+            }
+        psi_prev = psi;
+        chi_prev2 = chi_prev;
+        chi_prev = chi;
+    }
+}
+
 } // namespace
 
 int series_length(double x) {
@@ -149,6 +244,42 @@ Coefficients coefficients(Complex m, double x) {
 void coefficients(Complex m, double x, Coefficients& out) {
     SeriesWork work;
     coefficients(m, x, out, work);
+}
+
+void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> out, SeriesWork& work) {
+    if (x.size() != out.size())
+        throw InternalError(cat("Mie coefficients: ", x.size(), " size parameters for ", out.size(), " results"));
+    if (m.imag() != 0.0) {
+        for (std::size_t i = 0; i < x.size(); ++i) coefficients(m, x[i], out[i], work);
+        return;
+    }
+    for (std::size_t first = 0; first < x.size(); first += mie_lanes) {
+        const int count = static_cast<int>(std::min<std::size_t>(mie_lanes, x.size() - first));
+        // Lanes past `count` repeat the last sphere (finite values throughout) and store nothing.
+        double xs[mie_lanes];
+        int terms[mie_lanes];
+        Coefficients* dst[mie_lanes];
+        int most = 0;
+        for (int l = 0; l < mie_lanes; ++l) {
+            const std::size_t i = first + static_cast<std::size_t>(std::min(l, count - 1));
+            xs[l] = x[i];
+            terms[l] = series_length(x[i]);
+            dst[l] = &out[i];
+            most = std::max(most, terms[l]);
+        }
+        for (int l = 0; l < count; ++l) {
+            validate(m, xs[l]);
+            Coefficients& c = *dst[l];
+            c.m = m;
+            c.x = xs[l];
+            c.a.resize(static_cast<std::size_t>(terms[l]));
+            c.b.resize(static_cast<std::size_t>(terms[l]));
+            c.absorption.resize(static_cast<std::size_t>(terms[l]));
+        }
+        work.ez_lanes.resize(static_cast<std::size_t>(mie_lanes) * (most + 1));
+        work.ex_lanes.resize(static_cast<std::size_t>(mie_lanes) * (most + 1));
+        coefficients_real_lanes(m.real(), xs, terms, count, dst, work.ez_lanes.data(), work.ex_lanes.data());
+    }
 }
 
 void coefficients(Complex m, double x, Coefficients& out, SeriesWork& work) {

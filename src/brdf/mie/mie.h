@@ -60,12 +60,17 @@ Coefficients coefficients(std::complex<double> m, double x);
 struct SeriesWork {
     std::vector<std::complex<double>> ez;
     std::vector<double> ez_real, ex;
+    std::vector<double> ez_lanes, ex_lanes; ///< eight spheres' E_n, lane by lane
 };
 
 /// Same, reusing the storage of `out` and of `work`.
 void coefficients(std::complex<double> m, double x, Coefficients& out, SeriesWork& work);
 /// Same, reusing the storage of `out`.
 void coefficients(std::complex<double> m, double x, Coefficients& out);
+/// coefficients(m, x[i], out[i], work) for every i (x and out the same size), the same bits. A real
+/// index runs eight spheres at a time, one to a lane of a vector: the log-derivative recurrences are
+/// chains of divisions, each waiting for the last, and eight chains side by side overlap.
+void coefficients(std::complex<double> m, std::span<const double> x, std::span<Coefficients> out, SeriesWork& work);
 
 /// Efficiencies (cross section / pi r^2) and asymmetry parameter.
 struct Efficiencies {
