@@ -61,12 +61,15 @@ int family_nodes(double n_lo, double n_hi, double tolerance) {
     if (n_hi == n_lo) return 1;
     // Measured (tests/rte/rough_family_test.cpp, HG g 0.5 half-spaces under GGX alpha 0.03 and 0.3,
     // n from 1.5, w = 0.025 to 0.2): the body's BRDF between the nodes is off by at most C_c w^c of
-    // its largest value for an index range of width w, C_3 = 0.42, C_4 = 0.42, C_5 = 0.033,
-    // C_6 = 0.057, C_7 = 0.0065 (7 nodes reach the quadrature's own noise at w = 0.1). A sixth node
-    // gains little over five, so the counts are 3, 4, 5, 7, 9, ... with C_c taken as 0.5, 0.5, then
-    // 0.05 / 10^((c - 5) / 2); w is scaled by how fast the critical cosine moves with n against
-    // n = 1.5 (d mu_c / dn = 1 / (n^3 mu_c)): low indices move the streams' split faster. A paint
-    // binder across the visible (PMMA: 1.485 to 1.511) at the default tolerance takes 4.
+    // its largest value for an index range of width w, C_3 = 0.42, C_4 = 0.36, C_5 = 0.04,
+    // C_6 = 0.057, C_7 = 0.0065 (from 5 nodes at w = 0.025 and 7 at w = 0.1 the differences are the
+    // quadrature's own noise, ~1e-8). A sixth node gains little over five, so the counts are 3, 4,
+    // 5, 7, 9, ... with C_c taken as 0.5, 0.5, then 0.05 / 10^((c - 5) / 2) (C_7 = 0.005: the 0.0065
+    // was measured at w = 0.2, twice the range the rule was fitted on, where 7 nodes would meet
+    // 1.3 % of the tolerance instead of 1 %); w is scaled by how fast
+    // the critical cosine moves with n against n = 1.5 (d mu_c / dn = 1 / (n^3 mu_c)): low indices
+    // move the streams' split faster. A paint binder across the visible (PMMA: 1.485 to 1.511) at
+    // the default tolerance takes 4.
     const auto speed = [](double n) { return 1.0 / (n * n * n * std::sqrt(1.0 - 1.0 / (n * n))); };
     const double w = (n_hi - n_lo) * std::max(1.0, speed(n_lo) / speed(1.5));
     const auto error = [&](int c) {
