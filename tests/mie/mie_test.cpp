@@ -400,6 +400,9 @@ TEST(MieCoefficients, BatchEqualsOneByOne) {
     std::vector<Coefficients> two(2);
     SeriesWork work;
     EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{1.0, -1.0}, two, work), InputError);
+    EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{1.0, 1e300}, two, work), LimitError);
+    EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{std::nan(""), 1.0}, two, work),
+                 InputError);
     EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{1.0}, two, work), InternalError);
 }
 

@@ -253,6 +253,7 @@ void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> 
         for (std::size_t i = 0; i < x.size(); ++i) coefficients(m, x[i], out[i], work);
         return;
     }
+    for (double xi : x) validate(m, xi); // first: series_length casts x to int
     for (std::size_t first = 0; first < x.size(); first += mie_lanes) {
         const int count = static_cast<int>(std::min<std::size_t>(mie_lanes, x.size() - first));
         // Lanes past `count` repeat the last sphere (finite values throughout) and store nothing.
@@ -268,7 +269,6 @@ void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> 
             most = std::max(most, terms[l]);
         }
         for (int l = 0; l < count; ++l) {
-            validate(m, xs[l]);
             Coefficients& c = *dst[l];
             c.m = m;
             c.x = xs[l];
