@@ -60,9 +60,62 @@ std::string format_index(Complex m) {
     return cat(m.real(), m.imag() < 0 ? "-" : "+", std::abs(m.imag()), "i");
 }
 
-// The same for a real index (a non-absorbing sphere), in real arithmetic: E_n(mx) and E_n(x) run in
-// one loop (two independent division chains the processor overlaps), and with A, B real
-// a_n = A / (A - iB) = A (A + iB) / (A^2 + B^2), scaled by max(|A|, |B|) so that nothing overflows.
+// Eight spheres to a vector (coefficients_real_lanes below): GCC vector extensions, lowered to the
+// registers of each target_clones clone.
+#pragma GCC diagnostic ignored "-Wpsabi" // vectors pass only to functions inlined into the clones
+
+constexpr int mie_lanes = 8;
+using Lanes = double __attribute__((vector_size(8 * mie_lanes)));
+
+[[gnu::always_inline]] inline Lanes splat(double v) { return Lanes{} + v; }
+// std::abs of a double, and per lane (the sign bit cleared).
+[[gnu::always_inline]] inline double magnitude(double v) { return std::abs(v); }
+[[gnu::always_inline]] inline Lanes magnitude(Lanes v) {
+    using Bits = unsigned long long __attribute__((vector_size(8 * mie_lanes)));
+    Bits b;
+    std::memcpy(&b, &v, sizeof b);
+    b &= 0x7fffffffffffffffULL;
+    std::memcpy(&v, &b, sizeof v);
+    return v;
+}
+
+// Term n of a real index's upward series, for one sphere (T = double) or eight side by side (T =
+// Lanes), the same operations in the same order: psi_n and chi_n from the two before them
+// (advanced here) and E_n(x) = e_x, E_n(mx) = e; then a_n = A / (A - iB) = A (A + iB) / (A^2 + B^2)
+// and b_n alike, scaled by max(|A|, |B|) so that nothing overflows (std::max's choice: the first
+// unless it is less).
+template <typename T> struct RealTerm {
+    T a_re, a_im, b_re, b_im;
+};
+template <typename T>
+[[gnu::always_inline]] inline RealTerm<T> real_term(int n, double m, double minv, double minv2,
+                                                    double one_minus_m2_over_m2, T xinv, T e, T e_x, T& psi_prev,
+                                                    T& chi_prev, T& chi_prev2) {
+    const T ratio = (2.0 * n + 1.0) * xinv + e_x; // psi_{n-1}(x) / psi_n(x)
+    const T psi = psi_prev / ratio;
+    const T chi = static_cast<double>(2 * n - 1) * xinv * chi_prev - chi_prev2;
+    const T za = e * minv + (n + 1.0) * xinv * minv2 + static_cast<double>(n) * xinv;
+    const T zb = m * e + (2.0 * n + 1.0) * xinv;
+    const T num_a = psi * (e * minv - e_x + (n + 1.0) * xinv * one_minus_m2_over_m2);
+    const T num_b = psi * (m * e - e_x);
+    RealTerm<T> out;
+    const auto coefficient = [](T a, T b, T& re, T& im) {
+        const T abs_a = magnitude(a), abs_b = magnitude(b);
+        const T s = abs_a < abs_b ? abs_b : abs_a;
+        const T ar = a / s, br = b / s, t = ar / (ar * ar + br * br);
+        re = ar * t;
+        im = br * t;
+    };
+    coefficient(num_a, za * chi - chi_prev, out.a_re, out.a_im);
+    coefficient(num_b, zb * chi - chi_prev, out.b_re, out.b_im);
+    psi_prev = psi;
+    chi_prev2 = chi_prev;
+    chi_prev = chi;
+    return out;
+}
+
+// coefficients() for a real index (a non-absorbing sphere), in real arithmetic: E_n(mx) and E_n(x) run in
+// one loop (two independent division chains the processor overlaps), then the terms (real_term).
 // The absorption is exactly 0.
 void coefficients_real(double m, double x, int n_terms, Coefficients& out, SeriesWork& work) {
     std::vector<double>& ez = work.ez_real;
@@ -91,53 +144,24 @@ void coefficients_real(double m, double x, int n_terms, Coefficients& out, Serie
     const double one_minus_m2_over_m2 = (1.0 - m) * (1.0 + m) * minv2;
     const double sinx = std::sin(x), cosx = std::cos(x);
     double psi_prev = sinx, chi_prev2 = -sinx, chi_prev = cosx;
-    const auto coefficient = [](double a, double b) {
-        const double s = std::max(std::abs(a), std::abs(b));
-        const double ar = a / s, br = b / s, t = ar / (ar * ar + br * br);
-        return Complex(ar * t, br * t);
-    };
     for (int n = 1; n <= n_terms; ++n) {
-        const double ratio = (2.0 * n + 1.0) * xinv + ex[n];
-        const double psi = psi_prev / ratio;
-        const double chi = (2 * n - 1) * xinv * chi_prev - chi_prev2;
-        const double e = ez[n];
-        const double za = e * minv + (n + 1.0) * xinv * minv2 + n * xinv;
-        const double zb = m * e + (2.0 * n + 1.0) * xinv;
-        const double num_a = psi * (e * minv - ex[n] + (n + 1.0) * xinv * one_minus_m2_over_m2);
-        const double num_b = psi * (m * e - ex[n]);
-        out.a[n - 1] = coefficient(num_a, za * chi - chi_prev);
-        out.b[n - 1] = coefficient(num_b, zb * chi - chi_prev);
+        const RealTerm<double> t =
+            real_term(n, m, minv, minv2, one_minus_m2_over_m2, xinv, ez[n], ex[n], psi_prev, chi_prev, chi_prev2);
+        out.a[n - 1] = Complex(t.a_re, t.a_im);
+        out.b[n - 1] = Complex(t.b_re, t.b_im);
         out.absorption[n - 1] = 0.0;
-        psi_prev = psi;
-        chi_prev2 = chi_prev;
-        chi_prev = chi;
     }
 }
 
-// coefficients_real for eight spheres of one index at once, sphere l in lane l of GCC vectors
-// (lowered to the clone's registers): every operation of coefficients_real element by element and
-// in its order, so each sphere's coefficients are its own bits; where a lane's sphere has fewer
+// coefficients_real for eight spheres of one index at once, sphere l in lane l: every operation of
+// coefficients_real element by element and in its order (the upward series is the same real_term),
+// so each sphere's coefficients are its own bits; where a lane's sphere has fewer
 // terms or starts its recurrence lower, the lane's values are kept (select) or not stored. A
 // sphere's two downward recurrences are chains of divisions, each waiting for the one before: one
 // sphere at a time left the divider mostly idle; eight chains side by side keep it busy. Nothing
 // here allocates or throws (GCC 12 takes a target_clones function for one that does not throw and
 // skips its callers' cleanups: linalg.cpp): the caller sizes `out` and the lanes' E_n storage,
 // ez and ex, (terms + 1) x 8 values each.
-#pragma GCC diagnostic ignored "-Wpsabi" // vectors pass only to functions inlined into the clones
-
-constexpr int mie_lanes = 8;
-using Lanes = double __attribute__((vector_size(8 * mie_lanes)));
-
-[[gnu::always_inline]] inline Lanes splat(double v) { return Lanes{} + v; }
-[[gnu::always_inline]] inline Lanes abs_lanes(Lanes v) { // std::abs per lane: the sign bit cleared
-    using Bits = unsigned long long __attribute__((vector_size(8 * mie_lanes)));
-    Bits b;
-    std::memcpy(&b, &v, sizeof b);
-    b &= 0x7fffffffffffffffULL;
-    std::memcpy(&v, &b, sizeof v);
-    return v;
-}
-
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
@@ -174,37 +198,18 @@ void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (
     Lanes sinx, cosx;
     for (int l = 0; l < mie_lanes; ++l) sinx[l] = std::sin(x[l]), cosx[l] = std::cos(x[l]);
     Lanes psi_prev = sinx, chi_prev2 = -sinx, chi_prev = cosx;
-    // coefficient_real's a / (a - ib), scaled by max(|a|, |b|) (std::max: the first unless it is less).
-    const auto coefficient = [](Lanes a, Lanes b, Lanes& re, Lanes& im) {
-        const Lanes abs_a = abs_lanes(a), abs_b = abs_lanes(b);
-        const Lanes s = abs_a < abs_b ? abs_b : abs_a;
-        const Lanes ar = a / s, br = b / s, t = ar / (ar * ar + br * br);
-        re = ar * t;
-        im = br * t;
-    };
     for (int n = 1; n <= terms; ++n) {
         Lanes e, e_x_n;
         std::memcpy(&e, ez + mie_lanes * n, sizeof e);
         std::memcpy(&e_x_n, ex + mie_lanes * n, sizeof e_x_n);
-        const Lanes ratio = splat(2.0 * n + 1.0) * xinv + e_x_n;
-        const Lanes psi = psi_prev / ratio;
-        const Lanes chi = splat(2 * n - 1) * xinv * chi_prev - chi_prev2;
-        const Lanes za = e * minv + splat(n + 1.0) * xinv * minv2 + splat(n) * xinv;
-        const Lanes zb = m * e + splat(2.0 * n + 1.0) * xinv;
-        const Lanes num_a = psi * (e * minv - e_x_n + splat(n + 1.0) * xinv * one_minus_m2_over_m2);
-        const Lanes num_b = psi * (m * e - e_x_n);
-        Lanes a_re, a_im, b_re, b_im;
-        coefficient(num_a, za * chi - chi_prev, a_re, a_im);
-        coefficient(num_b, zb * chi - chi_prev, b_re, b_im);
+        const RealTerm<Lanes> t =
+            real_term(n, m, minv, minv2, one_minus_m2_over_m2, xinv, e, e_x_n, psi_prev, chi_prev, chi_prev2);
         for (int l = 0; l < count; ++l)
             if (n <= n_terms[l]) {
-                out[l]->a[n - 1] = Complex(a_re[l], a_im[l]);
-                out[l]->b[n - 1] = Complex(b_re[l], b_im[l]);
+                out[l]->a[n - 1] = Complex(t.a_re[l], t.a_im[l]);
+                out[l]->b[n - 1] = Complex(t.b_re[l], t.b_im[l]);
                 out[l]->absorption[n - 1] = 0.0;
             }
-        psi_prev = psi;
-        chi_prev2 = chi_prev;
-        chi_prev = chi;
     }
 }
 
