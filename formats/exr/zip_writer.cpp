@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <new>
 
 namespace brdf::formats::detail {
@@ -63,12 +64,17 @@ std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int
     static_assert(std::endian::native == std::endian::little,
                   "Xdr bytes are written as the host holds them");
     // Even bytes first, then odd ones; then each byte as its difference to the one before + 128.
+    // In one pass from the Xdr bytes (stride-two loads that vectorise), not a split and a backward
+    // pass over it.
     const std::size_t half = (size + 1) / 2;
-    for (std::size_t i = 0; i < half; ++i) split[i] = xdr[2 * i];
-    for (std::size_t i = 0; 2 * i + 1 < size; ++i) split[half + i] = xdr[2 * i + 1];
-    for (std::size_t i = size - 1; i > 0; --i)
-        split[i] =
-            static_cast<unsigned char>(static_cast<int>(split[i]) - split[i - 1] + (128 + 256));
+    const auto delta = [](unsigned char now, unsigned char before) {
+        return static_cast<unsigned char>(now - before + 128);
+    };
+    split[0] = xdr[0];
+    for (std::size_t i = 1; i < half; ++i) split[i] = delta(xdr[2 * i], xdr[2 * i - 2]);
+    if (size > 1) split[half] = delta(xdr[1], xdr[2 * (half - 1)]);
+    for (std::size_t i = 1; half + i < size; ++i)
+        split[half + i] = delta(xdr[2 * i + 1], xdr[2 * i - 1]);
     std::vector<unsigned char> out(libdeflate_zlib_compress_bound(compressor, size));
     const std::size_t packed =
         libdeflate_zlib_compress(compressor, split, size, out.data(), out.size());
@@ -171,28 +177,74 @@ void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneS
             throw InternalError(cat(display(path), ": OpenEXR kept ", ordered.size(), " of ",
                                     planes.size(), " channels"));
 
-        // Every block compressed on every core, then written in order.
+        // Blocks are claimed one at a time by every core (the MERL writer runs beside this one, so
+        // fixed runs per thread finished unevenly) and written in order as soon as a block and all
+        // before it are done, so the file's writes overlap the compression of later blocks.
         const int blocks = (exr_height + zip_lines - 1) / zip_lines;
-        std::vector<std::vector<unsigned char>> packed(static_cast<std::size_t>(blocks));
         const int threads = std::min(available_cpus(), blocks);
-        std::vector<Compressor> compressors;
-        std::vector<std::vector<unsigned char>> scratch(static_cast<std::size_t>(threads));
+        std::vector<std::vector<unsigned char>> packed(static_cast<std::size_t>(blocks));
+        std::vector<char> ready(static_cast<std::size_t>(blocks), 0);
+        int next_to_write = 0; // guarded by write_mutex, as ready and writing
+        bool writing = false;
+        std::mutex write_mutex;
+        // A compressor and its scratch per thread at work, handed out from a pool.
+        struct Tools {
+            Compressor compressor;
+            std::vector<unsigned char> scratch;
+        };
+        std::vector<Tools> pool;
+        std::mutex pool_mutex;
         for (int t = 0; t < threads; ++t) {
-            compressors.emplace_back(libdeflate_alloc_compressor(deflate_level));
-            if (!compressors.back()) throw std::bad_alloc();
+            pool.push_back({Compressor(libdeflate_alloc_compressor(deflate_level)), {}});
+            if (!pool.back().compressor) throw std::bad_alloc();
         }
-        // Contiguous runs of blocks per thread: each uses its own compressor and scratch.
-        const int per_thread = (blocks + threads - 1) / threads;
-        parallel_for(threads, threads, [&](int t) {
-            for (int b = t * per_thread; b < std::min(blocks, (t + 1) * per_thread); ++b) {
+        parallel_for(blocks, threads, [&](int b) {
+            std::vector<unsigned char> block;
+            {
+                // Taken from the pool and given back, also when compressing throws.
+                struct Lease {
+                    std::vector<Tools>& pool;
+                    std::mutex& mutex;
+                    Tools tools;
+                    ~Lease() {
+                        std::lock_guard lock(mutex);
+                        pool.push_back(std::move(tools));
+                    }
+                };
+                std::unique_lock take(pool_mutex);
+                Lease lease{pool, pool_mutex, std::move(pool.back())};
+                pool.pop_back();
+                take.unlock();
                 const int y0 = b * zip_lines;
-                packed[b] = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0),
-                                      compressors[t].get(), scratch[t]);
+                block = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0),
+                                  lease.tools.compressor.get(), lease.tools.scratch);
             }
+            // The thread that finds the next block ready writes the run that is ready, outside the
+            // lock, while the others go on compressing.
+            std::unique_lock lock(write_mutex);
+            packed[b] = std::move(block);
+            ready[b] = 1;
+            if (writing) return;
+            writing = true;
+            for (;;) {
+                int end = next_to_write;
+                while (end < blocks && ready[end]) ++end;
+                if (end == next_to_write) break;
+                lock.unlock();
+                for (int k = next_to_write; k < end; ++k) {
+                    std::vector<unsigned char>& chunk = packed[k];
+                    writer.check(exr_write_scanline_chunk(ctx, part, k * zip_lines, chunk.data(),
+                                                          chunk.size()));
+                    std::vector<unsigned char>().swap(chunk);
+                }
+                lock.lock();
+                next_to_write = end;
+            }
+            writing = false;
         });
-        for (int b = 0; b < blocks; ++b)
-            writer.check(exr_write_scanline_chunk(ctx, part, b * zip_lines, packed[b].data(),
-                                                  packed[b].size()));
+        if (next_to_write != blocks)
+            throw InternalError(cat(display(path), ": wrote ", next_to_write, " of ", blocks,
+                                    " blocks"));
         writer.finish();
     }
     out.commit();
