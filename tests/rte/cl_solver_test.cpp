@@ -181,8 +181,9 @@ TEST_P(ClSolver, SplitLaunchesGiveTheAnswersOfSolvingEachAlone) {
         std::size_t bytes = 0;
         for (std::size_t k = first; k < last; ++k) bytes += opencl_workspace_bytes(problems[k].streams.size());
         EXPECT_TRUE(bytes <= budget || last == first + 1) << first << ".." << last;
-        if (last < problems.size()) // greedy: the next problem would not have fitted
+        if (last < problems.size()) { // greedy: the next problem would not have fitted
             EXPECT_GT(bytes + opencl_workspace_bytes(problems[last].streams.size()), budget);
+        }
         next = last;
     }
     EXPECT_EQ(next, problems.size());
