@@ -12,6 +12,7 @@
 #include <exception>
 #include <functional>
 #include <future>
+#include <iterator>
 #include <tuple>
 #include <numbers>
 #include <optional>
@@ -514,8 +515,9 @@ std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, co
         if (!s.converged) log::warn("order solve did not converge (residual ", s.residual, ")");
     std::vector<std::optional<rte::Reflection>> made(setups.size());
     parallel_for(static_cast<int>(setups.size()), available_cpus(), [&](int k) {
-        std::vector<rte::OrderSolution> mine(solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k]),
-                                             solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k + 1]));
+        std::vector<rte::OrderSolution> mine(
+            std::make_move_iterator(solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k])),
+            std::make_move_iterator(solutions.begin() + static_cast<std::ptrdiff_t>(first_problem[k + 1])));
         made[k].emplace(std::move(setups[k]), std::move(mine), family);
     });
     std::vector<rte::Reflection> out;
