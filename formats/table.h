@@ -14,6 +14,8 @@
 
 #include <formats/halfdiff.h>
 
+#include <brdf/core/unwritten_allocator.h>
+
 #include <array>
 #include <cstddef>
 #include <functional>
@@ -42,22 +44,8 @@ std::string canonical_colorspace(std::string_view name);
 /// "red", "green", "blue" for channel 0, 1, 2.
 const char* channel_name(int channel);
 
-/// std::allocator, except that a vector's resize() leaves new doubles unwritten: a table's planes
-/// (35 MB) are then first touched by what fills them, the fill's threads or a file read, instead
-/// of being zeroed on one core before being written again.
-template <class T> struct UnwrittenAllocator : std::allocator<T> {
-    template <class U> struct rebind { using other = UnwrittenAllocator<U>; };
-    UnwrittenAllocator() = default;
-    template <class U> UnwrittenAllocator(const UnwrittenAllocator<U>&) noexcept {}
-    template <class U, class... Args> void construct(U* p, Args&&... args) {
-        if constexpr (sizeof...(Args) == 0)
-            ::new (static_cast<void*>(p)) U;
-        else
-            ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-    }
-};
-
-/// One channel of a table: `cells` values.
+/// One channel of a table: `cells` values, unwritten when made (brdf::UnwrittenAllocator: first
+/// touched by what fills them, the fill's threads or a file read).
 using TablePlane = std::vector<double, UnwrittenAllocator<double>>;
 
 struct BrdfTable {

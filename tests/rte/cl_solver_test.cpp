@@ -171,18 +171,19 @@ TEST_P(ClSolver, SplitLaunchesGiveTheAnswersOfSolvingEachAlone) {
     for (int n : {6, 12, 9, 16, 4, 12, 20, 8})
         for (int m : {0, 2}) problems.push_back(make_order_problem(beta, m == 0 ? 1.0 : 0.95, m, gauss_streams(n)));
     // Room for about three of the middle-sized problems per launch.
-    const std::size_t budget = 3 * opencl_workspace_bytes(12);
-    const auto ranges = launch_ranges(problems, budget);
+    const ClSolverKernel resolved = resolve_solver_kernel(kernel());
+    const std::size_t budget = 3 * opencl_problem_bytes(12, resolved);
+    const auto ranges = launch_ranges(problems, budget, resolved);
     ASSERT_GE(ranges.size(), 4u);
     std::size_t next = 0;
     for (const auto& [first, last] : ranges) {
         EXPECT_EQ(first, next);
         EXPECT_LT(first, last);
         std::size_t bytes = 0;
-        for (std::size_t k = first; k < last; ++k) bytes += opencl_workspace_bytes(problems[k].streams.size());
+        for (std::size_t k = first; k < last; ++k) bytes += opencl_problem_bytes(problems[k].streams.size(), resolved);
         EXPECT_TRUE(bytes <= budget || last == first + 1) << first << ".." << last;
         if (last < problems.size()) { // greedy: the next problem would not have fitted
-            EXPECT_GT(bytes + opencl_workspace_bytes(problems[last].streams.size()), budget);
+            EXPECT_GT(bytes + opencl_problem_bytes(problems[last].streams.size(), resolved), budget);
         }
         next = last;
     }
@@ -207,11 +208,29 @@ TEST_P(ClSolver, SplitLaunchesGiveTheAnswersOfSolvingEachAlone) {
 TEST(ClSolverLaunches, OversizedProblemGetsItsOwnLaunch) {
     std::vector<OrderProblem> problems;
     for (int n : {4, 40, 4, 4}) problems.push_back(make_order_problem(std::vector<double>{1.0}, 0.5, 0, gauss_streams(n)));
-    const auto ranges = launch_ranges(problems, 2 * opencl_workspace_bytes(4));
     const std::vector<std::pair<std::size_t, std::size_t>> expected{{0, 1}, {1, 2}, {2, 4}};
-    EXPECT_EQ(ranges, expected);
-    EXPECT_TRUE(launch_ranges({}, 1).empty());
+    for (ClSolverKernel k : {ClSolverKernel::Cooperative, ClSolverKernel::Serial}) {
+        SCOPED_TRACE(to_string(k));
+        EXPECT_EQ(launch_ranges(problems, 2 * opencl_problem_bytes(4, k), k), expected);
+        EXPECT_TRUE(launch_ranges({}, 1, k).empty());
+    }
     EXPECT_EQ(opencl_workspace_bytes(10), 16u * 100u * sizeof(double));
+    EXPECT_THROW(launch_ranges(problems, 1, ClSolverKernel::Automatic), InputError);
+}
+
+// What a launch holds per problem: the cooperative kernel a workspace per problem (16 n^2 doubles),
+// the serial one the problem's input and output (2n + 3n^2 doubles), its workspace being per
+// work-item. A budget that holds the serial inputs of a gloss finish's batch in one launch splits
+// the cooperative one.
+TEST(ClSolverLaunches, SerialLaunchesCountInputAndOutput) {
+    EXPECT_EQ(opencl_problem_bytes(10, ClSolverKernel::Cooperative), 16u * 100u * sizeof(double));
+    EXPECT_EQ(opencl_problem_bytes(10, ClSolverKernel::Serial), (20u + 300u) * sizeof(double));
+    EXPECT_THROW(opencl_problem_bytes(10, ClSolverKernel::Automatic), InputError);
+    std::vector<OrderProblem> problems;
+    for (int k = 0; k < 40; ++k) problems.push_back(make_order_problem(std::vector<double>{1.0}, 0.5, 0, gauss_streams(48)));
+    const std::size_t budget = 40 * opencl_problem_bytes(48, ClSolverKernel::Serial);
+    EXPECT_EQ(launch_ranges(problems, budget, ClSolverKernel::Serial).size(), 1u);
+    EXPECT_GT(launch_ranges(problems, budget, ClSolverKernel::Cooperative).size(), 1u);
 }
 
 TEST_P(ClSolver, EmptyBatch) {

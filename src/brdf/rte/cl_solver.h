@@ -37,9 +37,9 @@ ClSolverKernel resolve_solver_kernel(ClSolverKernel requested = ClSolverKernel::
 /// (naming the order m and omega) when a problem diverges or an LU pivot is zero, as the reference does.
 /// InputError for a problem with more than max_opencl_streams streams or inconsistent sizes.
 /// Uses brdf::cl::Context::shared(); very large batches are split into several launches
-/// (launch_ranges) so that the workspace fits one allocation: `workspace_budget_bytes`, or when 0 the
-/// device's CL_DEVICE_MAX_MEM_ALLOC_SIZE capped at 1 GiB (128 MiB on a CPU device, where it is the
-/// process's own memory).
+/// (launch_ranges) so that what a launch holds fits `workspace_budget_bytes`, or when 0 the device's
+/// CL_DEVICE_MAX_MEM_ALLOC_SIZE capped at 1 GiB (128 MiB on a CPU device, where it is the process's
+/// own memory).
 std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> problems, Method method,
                                                const SolveControl& control,
                                                ClSolverKernel kernel = ClSolverKernel::Automatic,
@@ -48,10 +48,16 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
 /// Bytes of kernel workspace one problem of n streams needs (AMB_WORKSPACE_MATRICES n^2 doubles).
 std::size_t opencl_workspace_bytes(int n);
 
+/// Bytes a launch of `kernel` (Cooperative or Serial) holds per problem of n streams: the
+/// cooperative kernel its workspace (opencl_workspace_bytes: each work-group has its own); the
+/// serial one its input and output (2n + 3n^2 doubles), its few work-items sharing workspace slots.
+/// Throws InputError for Automatic (resolve it first: resolve_solver_kernel).
+std::size_t opencl_problem_bytes(int n, ClSolverKernel kernel);
+
 /// The launches a batch is split into: consecutive [first, last) ranges covering every problem in
-/// order, each as long as its workspace stays within `budget_bytes` (a problem larger than the
-/// budget alone gets a launch of its own).
+/// order, each as long as its problems' opencl_problem_bytes stay within `budget_bytes` (a problem
+/// larger than the budget alone gets a launch of its own).
 std::vector<std::pair<std::size_t, std::size_t>> launch_ranges(std::span<const OrderProblem> problems,
-                                                               std::size_t budget_bytes);
+                                                               std::size_t budget_bytes, ClSolverKernel kernel);
 
 } // namespace brdf::rte
