@@ -58,6 +58,8 @@
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <optional>
+#include <span>
 
 namespace brdf::rte {
 namespace {
@@ -915,38 +917,75 @@ struct LevelChoice {
     double error;
 };
 
-LevelChoice choose_level(const Facets& fc, const std::vector<Probe>& probes, const OutputSide& side, int orders,
-                         int channels, double tolerance, const char* what, Workspace& ws) {
-    int level = start_level(tolerance);
-    const int count = static_cast<int>(probes.size());
-    const auto at_level = [&](int l) { // every probe at level l, one per core
-        std::vector<std::vector<Matrix>> out(probes.size());
-        for_each_on_cores(count, ws, [&](int i, Workspace& w) {
-            const Probe& p = probes[static_cast<std::size_t>(i)];
-            out[static_cast<std::size_t>(i)] =
-                direction_result(fc, p.kind, p.theta, side, p.theta_max, Level::at(l), orders, channels, w);
+// The probes of one level search, and the channels their results carry.
+struct ProbeGroup {
+    const std::vector<Probe>* probes;
+    int channels;
+};
+
+// choose_level for several groups at once (the air side's three probes and the inside's six):
+// each round evaluates the next level of every group still searching, all of their probes spread
+// over the cores together. One group alone left a core idle for a probe's evaluation in every
+// round (three probes on two cores). Each group's choice is what it would be alone; a search that
+// fails throws as it would alone, in the round it fails (the groups in order within a round).
+std::vector<LevelChoice> choose_levels(const Facets& fc, std::span<const ProbeGroup> groups, const OutputSide& side,
+                                       int orders, double tolerance, const char* what, Workspace& ws) {
+    const std::size_t g_count = groups.size();
+    std::vector<int> level(g_count, start_level(tolerance));
+    std::vector<std::optional<LevelChoice>> chosen(g_count);
+    // Every probe of the groups still searching, at level[g] + shift, one probe per core.
+    const auto evaluate = [&](int shift) {
+        std::vector<std::pair<std::size_t, std::size_t>> items; // (group, probe)
+        for (std::size_t g = 0; g < g_count; ++g)
+            if (!chosen[g])
+                for (std::size_t i = 0; i < groups[g].probes->size(); ++i) items.emplace_back(g, i);
+        std::vector<std::vector<std::vector<Matrix>>> out(g_count);
+        for (std::size_t g = 0; g < g_count; ++g) out[g].resize(groups[g].probes->size());
+        for_each_on_cores(static_cast<int>(items.size()), ws, [&](int k, Workspace& w) {
+            const auto [g, i] = items[static_cast<std::size_t>(k)];
+            const Probe& p = (*groups[g].probes)[i];
+            out[g][i] = direction_result(fc, p.kind, p.theta, side, p.theta_max, Level::at(level[g] + shift), orders,
+                                         groups[g].channels, w);
         });
         return out;
     };
-    std::vector<std::vector<Matrix>> coarse = at_level(level);
-    for (; level < max_level; ++level) {
-        double worst = 0.0;
-        std::vector<std::vector<Matrix>> fine = at_level(level + 1);
-        for (std::size_t i = 0; i < probes.size(); ++i) worst = std::max(worst, relative_change(fine[i], coarse[i]));
-        if (worst <= tolerance) return {level + 1, worst};
-        coarse = std::move(fine);
-        if (level + 1 == max_level)
-            throw NumericalError(cat(what, ": quadrature did not converge to ", tolerance, " (", worst,
-                                     " at the finest level)"));
+    std::vector<std::vector<std::vector<Matrix>>> coarse = evaluate(0);
+    for (;;) {
+        bool searching = false;
+        for (std::size_t g = 0; g < g_count; ++g) searching = searching || !chosen[g];
+        if (!searching) break;
+        for (std::size_t g = 0; g < g_count; ++g)
+            if (!chosen[g] && level[g] >= max_level)
+                throw NumericalError(cat(what, ": quadrature did not converge to ", tolerance));
+        std::vector<std::vector<std::vector<Matrix>>> fine = evaluate(1);
+        for (std::size_t g = 0; g < g_count; ++g) {
+            if (chosen[g]) continue;
+            double worst = 0.0;
+            for (std::size_t i = 0; i < fine[g].size(); ++i)
+                worst = std::max(worst, relative_change(fine[g][i], coarse[g][i]));
+            if (worst <= tolerance) {
+                chosen[g] = LevelChoice{level[g] + 1, worst};
+            } else if (level[g] + 1 == max_level) {
+                throw NumericalError(cat(what, ": quadrature did not converge to ", tolerance, " (", worst,
+                                         " at the finest level)"));
+            } else {
+                coarse[g] = std::move(fine[g]);
+                ++level[g];
+            }
+        }
     }
-    throw NumericalError(cat(what, ": quadrature did not converge to ", tolerance));
+    std::vector<LevelChoice> out;
+    for (const std::optional<LevelChoice>& c : chosen) out.push_back(*c);
+    return out;
 }
 
 double albedo_part(const Facets& fc, Kind kind, double mu, double tolerance) {
     const OutputSide side = OutputSide::whole();
     Workspace ws;
     const double theta = std::acos(mu);
-    const LevelChoice c = choose_level(fc, {{kind, theta, half_pi}}, side, 1, 1, tolerance, "rough interface albedo", ws);
+    const std::vector<Probe> probes{{kind, theta, half_pi}};
+    const ProbeGroup group{&probes, 1};
+    const LevelChoice c = choose_levels(fc, {&group, 1}, side, 1, tolerance, "rough interface albedo", ws).front();
     return direction_result(fc, kind, theta, side, half_pi, Level::at(c.level), 1, 1, ws)[0](0, 0);
 }
 
@@ -1094,13 +1133,16 @@ InterfaceKernels interface_kernels(const RoughInterface& surface, const StreamPi
     for (double t : {0.3, half_pi - 0.5 * sigma})
         if (t > 0.0 && t < half_pi) inside_probes.push_back({Kind::ReflectInside, t, t});
 
-    Workspace ws;
-    const LevelChoice air_level =
-        air_probes.empty() ? LevelChoice{start_level(tolerance), 0.0}
-                           : choose_level(fc, air_probes, side, orders, 2, tolerance, what, ws);
     if (!internal_reflection) inside_probes.clear();
-    const LevelChoice inside_level = inside_probes.empty() ? LevelChoice{start_level(tolerance), 0.0}
-                                                           : choose_level(fc, inside_probes, side, orders, 1, tolerance, what, ws);
+    // Both searches at once (choose_levels); a side without probes keeps the start level.
+    Workspace ws;
+    std::vector<ProbeGroup> groups;
+    if (!air_probes.empty()) groups.push_back({&air_probes, 2});
+    if (!inside_probes.empty()) groups.push_back({&inside_probes, 1});
+    const std::vector<LevelChoice> levels = choose_levels(fc, groups, side, orders, tolerance, what, ws);
+    const LevelChoice start{start_level(tolerance), 0.0};
+    const LevelChoice air_level = air_probes.empty() ? start : levels.front();
+    const LevelChoice inside_level = inside_probes.empty() ? start : levels.back();
     ws.evaluations = 0;
 
     InterfaceKernels out;
