@@ -1,6 +1,7 @@
 // parallel_for on the process's worker threads: every item once, loops inside loops, the first
 // exception rethrown after every thread has left, the thread count kept (one thread: the caller
-// alone; more than the CPUs: threads of the loop's own), and the same workers from loop to loop.
+// alone; more than the CPUs: threads of the loop's own), the same workers from loop to loop, and a
+// caller helping with the loops its loop's items started.
 
 #include <brdf/core/threads.h>
 
@@ -80,17 +81,48 @@ TEST(ParallelFor, MoreThreadsThanCpusRunAtOnce) {
 }
 
 // The workers start once: however many loops run, the threads that run their items are the caller
-// and at most available_cpus() - 1 others.
+// and at most available_cpus() - 1 others. Each item takes 20 us, so that a worker woken first
+// cannot take every item of a loop before the caller takes one (trivial items had let it, now and
+// then, in all 50 loops).
 TEST(ParallelFor, TheSameWorkersRunEveryLoop) {
     std::mutex mutex;
     std::set<std::thread::id> seen;
     for (int loop = 0; loop < 50; ++loop)
-        parallel_for(64, 0, [&](int) {
+        parallel_for(16, 0, [&](int) {
+            std::this_thread::sleep_for(std::chrono::microseconds(20));
             std::lock_guard lock(mutex);
             seen.insert(std::this_thread::get_id());
         });
     EXPECT_LE(seen.size(), static_cast<std::size_t>(available_cpus()));
     EXPECT_TRUE(seen.count(std::this_thread::get_id()));
+}
+
+// A caller done with its share of a loop works on the loops that the loop's other items started,
+// rather than waiting idle for them (the stream check's two probe stacks, each computing its
+// rough interface kernels over the cores). Here the caller's item returns once the other item has
+// started, and that item runs a nested loop of slow items: the caller runs some of them.
+TEST(ParallelFor, ACallerHelpsWithTheLoopsItsItemsStarted) {
+    if (available_cpus() < 2) GTEST_SKIP() << "needs two CPUs";
+    const auto caller = std::this_thread::get_id();
+    std::atomic<bool> other_started{false};
+    std::mutex mutex;
+    std::set<std::thread::id> nested_threads;
+    parallel_for(2, 2, [&](int) {
+        if (std::this_thread::get_id() == caller) {
+            const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+            while (!other_started.load() && std::chrono::steady_clock::now() < until) std::this_thread::yield();
+            return;
+        }
+        other_started = true;
+        parallel_for(8, 2, [&](int) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+            std::lock_guard lock(mutex);
+            nested_threads.insert(std::this_thread::get_id());
+        });
+    });
+    ASSERT_TRUE(other_started.load()) << "no worker took the second item";
+    EXPECT_TRUE(nested_threads.count(caller)) << "the caller waited idle for the nested loop";
+    EXPECT_EQ(nested_threads.size(), 2u);
 }
 
 // Loops from several threads at once (materials computed side by side) all finish.

@@ -19,7 +19,15 @@ int available_cpus() {
 
 namespace detail {
 
+namespace {
+// The loop whose item this thread is running (nullptr outside any): a loop started in that item
+// records it as its parent. A plain pointer: nothing to construct or destroy per thread.
+thread_local ParallelLoop* current_loop = nullptr;
+} // namespace
+
 void ParallelLoop::work() noexcept {
+    ParallelLoop* const outer = current_loop;
+    current_loop = this;
     for (int k = next++; k < count; k = next++) {
         try {
             call(body, k);
@@ -29,6 +37,7 @@ void ParallelLoop::work() noexcept {
             next = count;
         }
     }
+    current_loop = outer;
 }
 
 namespace {
@@ -48,15 +57,26 @@ class Workers {
             m_loops.push_back(&loop);
         }
         m_wake.notify_all();
+        if (loop.parent) m_left.notify_all(); // a caller waiting in withdraw may help with it
     }
 
     int size() const { return m_size; }
 
-    // Takes `loop` off the offers and waits until the workers in it have left.
+    // Takes `loop` off the offers and waits until the workers in it have left, meanwhile running
+    // items of the loops that its items started. A worker in `loop` may be inside an item that
+    // runs a loop of its own (the stream check's two probe stacks, each computing its rough
+    // interface kernels over the cores): the caller, done with its share, helps with that loop
+    // rather than leave its core idle until the worker is done (~30 ms of a gloss finish's check).
+    // Only those: another caller's loop could hold it far longer than `loop` needs.
     void withdraw(ParallelLoop& loop) {
         std::unique_lock lock(m_mutex);
         m_loops.erase(std::find(m_loops.begin(), m_loops.end(), &loop));
-        m_left.wait(lock, [&] { return loop.threads == 1; });
+        for (;;) {
+            ParallelLoop* nested = nullptr;
+            m_left.wait(lock, [&] { return loop.threads == 1 || (nested = joinable(&loop)) != nullptr; });
+            if (loop.threads == 1) return;
+            run(*nested, lock);
+        }
     }
 
   private:
@@ -71,24 +91,33 @@ class Workers {
         }
     }
 
-    // A loop with items left and room for one more thread, or nullptr.
-    ParallelLoop* joinable() const {
-        for (ParallelLoop* loop : m_loops)
-            if (loop->threads < loop->max_threads && loop->next.load() < loop->count) return loop;
+    // A loop with items left and room for one more thread, or nullptr; with `within`, only a loop
+    // started (at any depth) by an item of `within`.
+    ParallelLoop* joinable(const ParallelLoop* within = nullptr) const {
+        for (ParallelLoop* loop : m_loops) {
+            if (!(loop->threads < loop->max_threads && loop->next.load() < loop->count)) continue;
+            if (!within) return loop;
+            for (const ParallelLoop* p = loop->parent; p; p = p->parent)
+                if (p == within) return loop;
+        }
         return nullptr;
     }
 
+    // Joins `loop` until its items are taken; `lock` holds m_mutex on entry and on return.
+    void run(ParallelLoop& loop, std::unique_lock<std::mutex>& lock) {
+        ++loop.threads;
+        lock.unlock();
+        loop.work();
+        lock.lock();
+        --loop.threads;
+        m_left.notify_all();
+    }
     void serve() {
         std::unique_lock lock(m_mutex);
         for (;;) {
             ParallelLoop* loop = nullptr;
             m_wake.wait(lock, [&] { return (loop = joinable()) != nullptr; });
-            ++loop->threads;
-            lock.unlock();
-            loop->work();
-            lock.lock();
-            --loop->threads;
-            m_left.notify_all();
+            run(*loop, lock);
         }
     }
 
@@ -102,6 +131,7 @@ class Workers {
 } // namespace
 
 void run_parallel_loop(ParallelLoop& loop) {
+    loop.parent = current_loop;
     if (loop.max_threads <= 1) {
         loop.work();
         return;

@@ -35,6 +35,8 @@ struct ParallelLoop {
     int threads = 1; ///< the caller and the workers in the loop; guarded by the workers' mutex
     void (*call)(const void* body, int k) = nullptr;
     const void* body = nullptr;
+    /// The loop whose item started this one, if any (its items wait for this loop).
+    ParallelLoop* parent = nullptr;
     std::exception_ptr error; ///< the first exception of a body; the loop stops at it
     std::mutex error_mutex;
 
@@ -43,7 +45,8 @@ struct ParallelLoop {
 };
 
 /// Offers `loop` to the workers (when it may use more than one thread), works on it on the calling
-/// thread, and returns once every worker that joined it has left.
+/// thread, and returns once every worker that joined it has left; while it waits for them, the
+/// calling thread works on the loops their items started.
 void run_parallel_loop(ParallelLoop& loop);
 
 } // namespace detail
