@@ -93,7 +93,7 @@ template <typename Vector>
 // workspace slot (kernels/ambartsumian_serial.cl); otherwise one slot per task.
 // `host_memory`: the device works in the host's memory (a CPU device), so the input and output
 // buffers are the host's vectors themselves rather than copies (a gloss finish's batch at 48 streams
-// had copied 41 MB in and 20 MB out).
+// had copied 46 MB in and 22 MB out).
 void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, bool serial, bool host_memory,
                  std::size_t local_size, std::span<const OrderProblem> problems, std::size_t first,
                  std::size_t last, Method method, const SolveControl& control, std::vector<OrderSolution>& out) {
@@ -121,7 +121,7 @@ void solve_range(brdf::cl::Context& ctx, ::cl::Kernel& kernel, bool serial, bool
         ws_size += workspace_doubles(n);
     }
     // Unwritten until packed, on every core: tens of MB of fresh pages for a rough finish's batch
-    // (zeroed first, on one core, they had kept the other idle for ~40 ms of a gloss).
+    // (zeroed first, on one core, they had kept the other idle for some 20-40 ms of a gloss).
     std::vector<double, UnwrittenAllocator<double>> input(in_size);
     parallel_for(static_cast<int>(count), available_cpus(), [&](int k) {
         const OrderProblem& p = problems[first + static_cast<std::size_t>(k)];
@@ -317,7 +317,7 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
                                    ? workspace_budget_bytes
                                    : std::min<std::size_t>(static_cast<std::size_t>(max_alloc), cap);
     // Launches that fit the budget. The serial kernel's workspace is a slot per work-item, so its
-    // launches count the problems' inputs and outputs: a gloss finish's batch (1,122 problems of 48
+    // launches count the problems' inputs and outputs: a gloss finish's batch (1,211 problems of 48
     // streams) goes in one launch rather than two, each with its input packed beforehand and its
     // residuals checked after while the device stood idle.
     for (const auto& [first, last] :

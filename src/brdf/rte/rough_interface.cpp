@@ -905,7 +905,7 @@ void check_cosine(double mu, const char* what) {
     if (!(mu > 0.0 && mu <= 1.0)) throw InputError(cat(what, ": cosine must be in (0, 1] (got ", mu, ")"));
 }
 
-// Smallest level whose result agrees with the next one to `tolerance` on every probe direction.
+// A direction whose result the quadrature level is chosen on.
 struct Probe {
     Kind kind;
     double theta; // incident direction
@@ -923,9 +923,10 @@ struct ProbeGroup {
     int channels;
 };
 
-// choose_level for several groups at once (the air side's three probes and the inside's six):
-// each round evaluates the next level of every group still searching, all of their probes spread
-// over the cores together. One group alone left a core idle for a probe's evaluation in every
+// For each group, the smallest level whose result agrees with the next one to `tolerance` on every
+// probe direction. The groups are searched at once (the air side's three probes and the inside's
+// six): each round evaluates the next level of every group still searching, all of their probes
+// spread over the cores together. One group alone left a core idle for a probe's evaluation in every
 // round (three probes on two cores). Each group's choice is what it would be alone; a search that
 // fails throws as it would alone, in the round it fails (the groups in order within a round).
 std::vector<LevelChoice> choose_levels(const Facets& fc, std::span<const ProbeGroup> groups, const OutputSide& side,
