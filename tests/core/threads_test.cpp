@@ -100,22 +100,27 @@ TEST(ParallelFor, TheSameWorkersRunEveryLoop) {
 // A caller done with its share of a loop works on the loops that the loop's other items started,
 // rather than waiting idle for them (the stream check's two probe stacks, each computing its
 // rough interface kernels over the cores). Here the caller's item returns once the other item has
-// started, and that item runs a nested loop of slow items: the caller runs some of them.
+// started, and that item runs a nested loop whose items, on that thread, wait (up to 10 s in all)
+// for the caller to take one: with help the caller runs some of them, however late it is
+// scheduled; without, the loop ends after the wait with the caller in none.
 TEST(ParallelFor, ACallerHelpsWithTheLoopsItsItemsStarted) {
     if (available_cpus() < 2) GTEST_SKIP() << "needs two CPUs";
     const auto caller = std::this_thread::get_id();
-    std::atomic<bool> other_started{false};
+    std::atomic<bool> other_started{false}, caller_joined{false};
     std::mutex mutex;
     std::set<std::thread::id> nested_threads;
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     parallel_for(2, 2, [&](int) {
         if (std::this_thread::get_id() == caller) {
-            const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
             while (!other_started.load() && std::chrono::steady_clock::now() < until) std::this_thread::yield();
             return;
         }
         other_started = true;
         parallel_for(8, 2, [&](int) {
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+            if (std::this_thread::get_id() == caller)
+                caller_joined = true;
+            else
+                while (!caller_joined.load() && std::chrono::steady_clock::now() < until) std::this_thread::yield();
             std::lock_guard lock(mutex);
             nested_threads.insert(std::this_thread::get_id());
         });
