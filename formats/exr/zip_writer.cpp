@@ -11,6 +11,7 @@
 #include <openexr.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -187,38 +188,19 @@ void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneS
         int next_to_write = 0; // guarded by write_mutex, as ready and writing
         bool writing = false;
         std::mutex write_mutex;
-        // A compressor and its scratch per thread at work, handed out from a pool.
-        struct Tools {
-            Compressor compressor;
-            std::vector<unsigned char> scratch;
-        };
-        std::vector<Tools> pool;
-        std::mutex pool_mutex;
+        // A compressor and scratch per thread; each thread takes the next block from `next_block`.
+        std::vector<Compressor> compressors;
+        std::vector<std::vector<unsigned char>> scratch(static_cast<std::size_t>(threads));
         for (int t = 0; t < threads; ++t) {
-            pool.push_back({Compressor(libdeflate_alloc_compressor(deflate_level)), {}});
-            if (!pool.back().compressor) throw std::bad_alloc();
+            compressors.emplace_back(libdeflate_alloc_compressor(deflate_level));
+            if (!compressors.back()) throw std::bad_alloc();
         }
-        parallel_for(blocks, threads, [&](int b) {
-            std::vector<unsigned char> block;
-            {
-                // Taken from the pool and given back, also when compressing throws.
-                struct Lease {
-                    std::vector<Tools>& pool;
-                    std::mutex& mutex;
-                    Tools tools;
-                    ~Lease() {
-                        std::lock_guard lock(mutex);
-                        pool.push_back(std::move(tools));
-                    }
-                };
-                std::unique_lock take(pool_mutex);
-                Lease lease{pool, pool_mutex, std::move(pool.back())};
-                pool.pop_back();
-                take.unlock();
-                const int y0 = b * zip_lines;
-                block = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0),
-                                  lease.tools.compressor.get(), lease.tools.scratch);
-            }
+        std::atomic<int> next_block{0};
+        // Block b compressed, then handed on for writing.
+        const auto compress_and_write = [&](int b, int t) {
+            const int y0 = b * zip_lines;
+            std::vector<unsigned char> block = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0),
+                                                         compressors[t].get(), scratch[t]);
             // The thread that finds the next block ready writes the run that is ready, outside the
             // lock, while the others go on compressing.
             std::unique_lock lock(write_mutex);
@@ -241,6 +223,14 @@ void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneS
                 next_to_write = end;
             }
             writing = false;
+        };
+        parallel_for(threads, threads, [&](int t) {
+            try {
+                for (int b = next_block++; b < blocks; b = next_block++) compress_and_write(b, t);
+            } catch (...) {
+                next_block = blocks; // the other threads stop too; parallel_for rethrows it
+                throw;
+            }
         });
         if (next_to_write != blocks)
             throw InternalError(cat(display(path), ": wrote ", next_to_write, " of ", blocks,
