@@ -1,5 +1,6 @@
 // End-to-end stages of the seed material (rutile in acrylic, visible spectrum, default accuracy):
-// optics (Mie per wavelength), the batched solve, the table fill, and writing both tables.
+// optics (Mie per wavelength), the batched solve, the table fill, and writing both tables. The same
+// stages of the HG half-space that bench/interactive.py times against DISORT (BM_*Hg).
 // Run: build/bin/bench_pipeline [--benchmark_filter=...]
 
 #include <brdf/material/spec.h>
@@ -115,6 +116,50 @@ void BM_FillSeedParts(benchmark::State& state) {
     state.SetLabel(labels[state.range(0)]);
 }
 BENCHMARK(BM_FillSeedParts)->Arg(0)->Arg(1)->Arg(2)->ArgName("part")->Unit(benchmark::kMillisecond)->Iterations(2);
+
+// The HG half-space of the DISORT row (bench/interactive.py): a grey table, 16 orders, no interface.
+material::MaterialSpec hg_spec() {
+    return material::parse_specs_text(
+        R"({"name": "hg", "medium": {"albedo": 0.99, "phase": {"type": "henyey_greenstein", "g": 0.5}},
+            "accuracy": {"tolerance": 1e-6}, "spectrum": "rgb"})", "hg").at(0);
+}
+
+model::FillInputs hg_fill_inputs() { return model::prepare_fill(model::solve_material(hg_spec(), model::Device::Cpu)); }
+
+// The HG half-space's solve: its stream check, whose probe at the chosen count is its one sample.
+void BM_SolveHg(benchmark::State& state) {
+    for (auto _ : state) benchmark::DoNotOptimize(model::solve_material(hg_spec(), model::Device::Cpu));
+}
+BENCHMARK(BM_SolveHg)->Unit(benchmark::kMillisecond)->Iterations(10)->Repetitions(3);
+
+// Its table's per-order grids (the Nystrom evaluation at 181 zenith angles per order), each from a
+// fresh solve as in a command (the solution keeps what one evaluation sets up for the next).
+void BM_PrepareFillHg(benchmark::State& state) {
+    for (auto _ : state) {
+        state.PauseTiming();
+        const model::SolvedMaterial m = model::solve_material(hg_spec(), model::Device::Cpu);
+        state.ResumeTiming();
+        benchmark::DoNotOptimize(model::prepare_fill(m));
+    }
+}
+BENCHMARK(BM_PrepareFillHg)->Unit(benchmark::kMillisecond)->Iterations(10)->Repetitions(3);
+
+// Its table fill: the C++ lanes (0) or the OpenCL kernel (1), both over every core.
+void BM_FillHg(benchmark::State& state) {
+    const model::FillInputs in = hg_fill_inputs();
+    const bool opencl = state.range(0) != 0;
+    const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    try {
+        if (opencl) benchmark::DoNotOptimize(model::fill_table_opencl(in)); // build the program outside the timing
+    } catch (const Error& e) {
+        state.SkipWithError(e.what());
+        return;
+    }
+    for (auto _ : state)
+        benchmark::DoNotOptimize(opencl ? model::fill_table_opencl(in) : model::fill_table_cpu(in, threads));
+    state.counters["orders"] = in.orders;
+}
+BENCHMARK(BM_FillHg)->Arg(0)->Arg(1)->ArgName("opencl")->Unit(benchmark::kMillisecond)->Iterations(10)->Repetitions(3);
 
 void BM_PrepareFillSeed(benchmark::State& state) {
     const model::SolvedMaterial m = model::solve_material(seed(), model::Device::Cpu);

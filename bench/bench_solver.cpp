@@ -9,6 +9,8 @@
 //                                    rte::ClSolverKernel); omega index 0, 1, 2 = 0.9, 0.99999, 1.
 //                                    Counters: orders, total iterations over the orders.
 //   BM_Order/method/m/omega          one order (C++ reference), m = 0, 1, 4, 16: time and iterations.
+//   BM_PencilShifts/streams          ShiftedPencil::solve of a table grid's 181 shifts (the Nystrom
+//                                    evaluation off the nodes of one order), one thread.
 // Iterations stop at the "default" accuracy's tolerance (1e-8 relative change).
 // The fixed point at omega -> 1 runs to SolveControl's default cap (100000 sweeps) at m = 0: it is the
 // baseline the doubling replaces, and slow on purpose.
@@ -98,6 +100,31 @@ BENCHMARK(BM_Order)
     ->ArgsProduct({{0, 1, 2}, {0, 1, 4, 16}, {0, 1, 2}})
     ->ArgNames({"method", "m", "omega"})
     ->Unit(benchmark::kMillisecond);
+
+// The shifts of one order's table grid (181 zenith angles) against a pencil of `streams` nodes, as
+// Reflection::half_space_reflector solves them (its G is the test's made-up one: the time does not
+// depend on the values).
+void BM_PencilShifts(benchmark::State& state) {
+    const int n = static_cast<int>(state.range(0)), shifts = 181;
+    brdf::Matrix g(n, n);
+    std::vector<double> d(static_cast<std::size_t>(n)), u(static_cast<std::size_t>(shifts));
+    for (int i = 0; i < n; ++i) {
+        d[i] = std::pow(1e-4, i / (n - 1.0));
+        for (int j = 0; j < n; ++j) g(i, j) = (i == j ? 1.0 : 0.0) - 0.4 * std::cos(0.3 * i * j + 0.1 * j) / n;
+    }
+    for (int e = 0; e < shifts; ++e) u[e] = std::cos(std::acos(-1.0) / 2.0 * e / (shifts - 1.0)) + 1e-6;
+    const brdf::ShiftedPencil pencil(g, d);
+    brdf::Matrix b(n, shifts);
+    for (auto _ : state) {
+        state.PauseTiming();
+        for (int i = 0; i < n; ++i)
+            for (int e = 0; e < shifts; ++e) b(i, e) = std::sin(1.0 + i + 0.37 * e);
+        state.ResumeTiming();
+        pencil.solve(u, b);
+        benchmark::DoNotOptimize(b.data().data());
+    }
+}
+BENCHMARK(BM_PencilShifts)->Arg(32)->Arg(64)->Arg(128)->ArgName("streams")->Unit(benchmark::kMicrosecond);
 
 } // namespace
 

@@ -196,28 +196,50 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             vstore8(so_g[0] | si_g[0], 0, lane_ghost);
         }
         double8 cm_prev = c1, cm = (double8)(1.0); // cos(-phi) = cos(phi), cos(0)
-        // cells[q][l]: element k = 8 q + i of lane l's block sums, i = 0..7; terms[k]: element k of
-        // every lane. Grey: element j is order m0 + j. RGB: element k = 3 j + c is order m0 + j,
-        // channel c. A block's odd orders (m0 is even) count their taps mirrored through the normal
-        // with the opposite sign, acc - 2 mirrored (table_fill.cpp: cell_value): j is odd for
-        // elements 1, 3, 5, 7 (grey), or 3-5 (q = 0), 9-11, 15 (q = 1), 16-17 and 21-23 (q = 2).
+        // cells[q][l]: element k = 8 q + i of lane l's sums of the pass's orders, i = 0..7;
+        // terms[k]: element k of every lane. RGB: one block of orders per pass, element k = 3 j + c
+        // is order m0 + j, channel c. Grey: two blocks per pass where the orders reach that far,
+        // element j is order m0 + j (j < 16): each tap's weight and address, loaded once, serve
+        // both blocks (each sum is the one a pass of its own makes, in the same order), where they
+        // had been a third of a grey block's work (HG g 0.5: 34 -> 30 ms; an RGB pair's twelve sums
+        // ran slower than one block's six). A block's odd orders (its first is even) count their
+        // taps mirrored through the normal with the opposite sign, acc - 2 mirrored (table_fill.cpp:
+        // cell_value): j is odd for elements 1, 3, 5, 7 of each grey double8, or 3-5 (q = 0), 9-11,
+        // 15 (q = 1), 16-17 and 21-23 (q = 2).
         double8 cells[3][TF_LANES], terms[3 * TF_ORDER_BLOCK];
-        const int blocks_per_order = p.channels; // double8 per block of orders
-        for (int m0 = 0; m0 < p.orders; m0 += TF_ORDER_BLOCK) {
+        const long8 odd_grey = (long8)(0, -1, 0, -1, 0, -1, 0, -1);
+        const int pass = p.channels == 1 ? 2 * TF_ORDER_BLOCK : TF_ORDER_BLOCK; // orders per pass
+        for (int m0 = 0; m0 < p.orders; m0 += pass) {
+            const int pair = p.channels == 1 && m0 + TF_ORDER_BLOCK < p.orders;
+            const int vectors = p.channels == 1 ? 1 + pair : 3; // double8 per lane this pass
             for (int l = 0; l < TF_LANES; ++l) {
                 if (lane_below[l]) { // its value is replaced: zeros keep the lane's sums defined
-                    for (int q = 0; q < blocks_per_order; ++q) cells[q][l] = (double8)(0.0);
+                    for (int q = 0; q < vectors; ++q) cells[q][l] = (double8)(0.0);
                     continue;
                 }
                 __global const double* fourier = data + p.fourier_offset + m0 * p.channels;
                 if (p.channels == 1) { // a grey table: one channel, one double8 per block
-                    double8 v0 = (double8)(0.0), g0 = (double8)(0.0);
-                    for (int t = 0; t < 16; ++t)
-                        v0 += tap_w[t * TF_LANES + l] * vload8(0, fourier + tap_at[t * TF_LANES + l]);
+                    double8 v0 = (double8)(0.0), v1 = (double8)(0.0), g0 = (double8)(0.0), g1 = (double8)(0.0);
+                    if (pair) {
+                        for (int t = 0; t < 16; ++t) {
+                            const double w = tap_w[t * TF_LANES + l];
+                            __global const double* f = fourier + tap_at[t * TF_LANES + l];
+                            v0 += w * vload8(0, f);
+                            v1 += w * vload8(1, f);
+                        }
+                    } else {
+                        for (int t = 0; t < 16; ++t)
+                            v0 += tap_w[t * TF_LANES + l] * vload8(0, fourier + tap_at[t * TF_LANES + l]);
+                    }
                     for (int t = 0; lane_ghost[l] && t < 16; ++t)
-                        if (tap_mirrored[t * TF_LANES + l])
-                            g0 += tap_w[t * TF_LANES + l] * vload8(0, fourier + tap_at[t * TF_LANES + l]);
-                    cells[0][l] = select(v0, v0 - 2.0 * g0, (long8)(0, -1, 0, -1, 0, -1, 0, -1));
+                        if (tap_mirrored[t * TF_LANES + l]) {
+                            const double w = tap_w[t * TF_LANES + l];
+                            __global const double* f = fourier + tap_at[t * TF_LANES + l];
+                            g0 += w * vload8(0, f);
+                            if (pair) g1 += w * vload8(1, f);
+                        }
+                    cells[0][l] = select(v0, v0 - 2.0 * g0, odd_grey);
+                    cells[1][l] = select(v1, v1 - 2.0 * g1, odd_grey);
                 } else {
                     // A block's 3 x 8 sums as three double8, element for element the reference's
                     // loop over k.
@@ -243,8 +265,8 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
                     cells[2][l] = select(v2, v2 - 2.0 * g2, (long8)(-1, -1, 0, 0, 0, -1, -1, -1));
                 }
             }
-            for (int q = 0; q < blocks_per_order; ++q) transpose(cells[q], terms + TF_LANES * q);
-            for (int j = 0; j < TF_ORDER_BLOCK; ++j) {
+            for (int q = 0; q < vectors; ++q) transpose(cells[q], terms + TF_LANES * q);
+            for (int j = 0; j < vectors * TF_LANES / p.channels; ++j) {
                 if (p.channels == 1) {
                     out0 += terms[j] * cm;
                 } else {

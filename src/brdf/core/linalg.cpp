@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <mutex>
 #include <utility>
 
@@ -202,75 +203,68 @@ ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d)
 
 namespace {
 
-// x = (I + u H)^-1 b for the upper Hessenberg H and `lanes` shifts side by side, in place:
-// y[i * lanes + l] is row i of shift l's right-hand side, u[l] its shift. Gaussian elimination with
-// a pivot chosen per shift from two adjacent rows, then back substitution: every shift sees the
-// operations of a scalar solve in the same order, so its answer does not depend on its neighbours
-// or on the instruction set (no contraction anywhere, cmake/BrdfWarnings.cmake: the clones give
-// identical results). Side by side, the shifts fill the vector lanes; solved one at a time, this
-// O(n^2) chain of dependent operations was a tenth of a material's compute. `bad` receives the shifts singular to working
-// precision (1) or not (0). `work` holds n x n x lanes scratch.
-template <int Lanes>
+// x = (I + u H)^-1 b for the upper Hessenberg H and `hessenberg_lanes` shifts side by side, in
+// place: y[i * hessenberg_lanes + l] is row i of shift l's right-hand side, u[l] its shift.
+// Gaussian elimination with a pivot chosen per shift from two adjacent rows, then back substitution
+// by columns: every shift sees the operations of a scalar solve in the same order, so its answer
+// does not depend on its neighbours or on the instruction set (no contraction anywhere,
+// cmake/BrdfWarnings.cmake: the clones give identical results). One vector of GCC's per matrix
+// entry holds it for every shift: the pivots' row swaps are blends (plain loops over the lanes
+// compiled to a branch per lane, a third of the time); each row of I + u H is made as the
+// elimination reaches it, in the slot where the factor's row will be, so a step reads what the last
+// one wrote instead of the whole matrix made first; and the back substitution subtracts each
+// solved unknown from the rows above it, independent updates, where each row's sum of products had
+// waited on every subtraction in turn. A table grid's 181 shifts at 64 streams: 0.72 -> 0.58 ms
+// (bench_solver BM_PencilShifts, with the products around it); the HG half-space's solve, its
+// stream check evaluating the probes, 31.6 -> 24.8 ms (bench_pipeline BM_SolveHg). `bad` receives
+// the shifts singular to working precision (1) or not (0). `work` holds n x n x hessenberg_lanes
+// scratch, written before it is read.
+constexpr int hessenberg_lanes = 8;
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
 solve_hessenberg_lanes(const Matrix& h, const double* u, double* y, double* work, int* bad) {
+    // Unaligned (std::vector's doubles); no vector crosses a call.
+    typedef double Vec __attribute__((vector_size(8 * hessenberg_lanes), aligned(8)));
+    typedef long long Mask __attribute__((vector_size(8 * hessenberg_lanes), aligned(8)));
     const int n = h.rows();
-    const auto a = [&](int i, int j) { return work + (static_cast<std::size_t>(i) * n + j) * Lanes; };
-    for (int l = 0; l < Lanes; ++l) bad[l] = 0;
-    for (int i = 0; i < n; ++i)
-        for (int j = std::max(0, i - 1); j < n; ++j) {
-            double* aij = a(i, j);
-            const double eij = i == j ? 1.0 : 0.0, hij = h(i, j);
-            for (int l = 0; l < Lanes; ++l) aij[l] = eij + u[l] * hij;
-        }
+    // Row k of the triangular factor U at a[k * n + j], j >= k. The rows of I + u H are made as the
+    // elimination reaches them: at step k, row k + 1's slot receives what row k's pivot leaves of
+    // the other row (the next step's candidate), so every step reads the row the last one wrote.
+    Vec* const a = reinterpret_cast<Vec*>(work);
+    Vec* const x = reinterpret_cast<Vec*>(y);
+    const Vec shift = *reinterpret_cast<const Vec*>(u);
+    Mask singular = {};
+    for (int j = 0; j < n; ++j) a[j] = (j == 0 ? 1.0 : 0.0) + shift * h(0, j);
     for (int k = 0; k + 1 < n; ++k) {
-        double* akk = a(k, k);
-        double* bkk = a(k + 1, k);
-        bool swap[Lanes];
-        for (int l = 0; l < Lanes; ++l) swap[l] = std::abs(bkk[l]) > std::abs(akk[l]);
-        for (int j = k; j < n; ++j) {
-            double* top = a(k, j);
-            double* below = a(k + 1, j);
-            for (int l = 0; l < Lanes; ++l) {
-                const double p = top[l], q = below[l];
-                top[l] = swap[l] ? q : p;
-                below[l] = swap[l] ? p : q;
-            }
-        }
-        double* yk = y + static_cast<std::size_t>(k) * Lanes;
-        double* yk1 = yk + Lanes;
-        double factor[Lanes];
-        for (int l = 0; l < Lanes; ++l) {
-            const double p = yk[l], q = yk1[l];
-            yk[l] = swap[l] ? q : p;
-            yk1[l] = swap[l] ? p : q;
-            // a zero below the pivot leaves the row as it is (factor 0), as the scalar solve skips it
-            const bool skip = bkk[l] == 0.0;
-            bad[l] |= !skip && akk[l] == 0.0;
-            factor[l] = skip ? 0.0 : bkk[l] / akk[l];
-        }
+        Vec* const top = a + k * n;        // the candidate from above (row 0 at k = 0)
+        Vec* const below = a + (k + 1) * n; // row k + 1 of I + u H, made here (H: from column k on)
+        const double* const next = h.data().data() + static_cast<std::size_t>(k + 1) * n; // row k + 1 of H
+        const Vec t = top[k], b = shift * next[k]; // (k + 1, k): off the diagonal
+        const Mask swap = (b < 0.0 ? -b : b) > (t < 0.0 ? -t : t); // |b| > |t|, false for NaN
+        const Vec pivot = swap ? b : t, other = swap ? t : b;
+        top[k] = pivot;
+        const Vec p = x[k], q = x[k + 1];
+        x[k] = swap ? q : p;
+        x[k + 1] = swap ? p : q;
+        // a zero below the pivot leaves the row as it is (factor 0), as the scalar solve skips it
+        const Mask skip = other == 0.0;
+        singular |= ~skip & (pivot == 0.0);
+        const Vec factor = skip ? Vec{} : other / pivot;
         for (int j = k + 1; j < n; ++j) {
-            const double* top = a(k, j);
-            double* below = a(k + 1, j);
-            for (int l = 0; l < Lanes; ++l) below[l] -= factor[l] * top[l];
+            const Vec tj = top[j], bj = (j == k + 1 ? 1.0 : 0.0) + shift * next[j];
+            const Vec uj = swap ? bj : tj;
+            top[j] = uj;
+            below[j] = (swap ? tj : bj) - factor * uj;
         }
-        for (int l = 0; l < Lanes; ++l) yk1[l] -= factor[l] * yk[l];
+        x[k + 1] -= factor * x[k];
     }
     for (int i = n - 1; i >= 0; --i) {
-        double v[Lanes];
-        double* yi = y + static_cast<std::size_t>(i) * Lanes;
-        for (int l = 0; l < Lanes; ++l) v[l] = yi[l];
-        for (int j = i + 1; j < n; ++j) {
-            const double* aij = a(i, j);
-            const double* yj = y + static_cast<std::size_t>(j) * Lanes;
-            for (int l = 0; l < Lanes; ++l) v[l] -= aij[l] * yj[l];
-        }
-        const double* aii = a(i, i);
-        for (int l = 0; l < Lanes; ++l) {
-            const double x = v[l] / aii[l];
-            bad[l] |= !(aii[l] != 0.0) || !std::isfinite(x);
-            yi[l] = x;
-        }
+        const Vec pivot = a[i * n + i];
+        const Vec xi = x[i] / pivot;
+        singular |= ~(pivot != 0.0) | ~(xi - xi == 0.0); // a zero pivot, or an infinite or NaN answer
+        x[i] = xi;
+        for (int k = 0; k < i; ++k) x[k] -= a[k * n + i] * xi;
     }
+    for (int l = 0; l < hessenberg_lanes; ++l) bad[l] = singular[l] != 0;
 }
 
 } // namespace
@@ -293,8 +287,10 @@ void ShiftedPencil::solve(std::span<const double> u, Matrix& b) const {
     Matrix y;
     gemm(m_q, true, b, false, y);
     Matrix yt = transpose(y); // one shift per row (the product with Z below as before)
-    constexpr int lanes = 8;
-    std::vector<double> work(static_cast<std::size_t>(n) * n * lanes), group(static_cast<std::size_t>(n) * lanes);
+    constexpr int lanes = hessenberg_lanes;
+    // Scratch every solve writes before it reads (n x n x 8: 262 KB at 64 streams), not zeroed first.
+    const auto work = std::make_unique_for_overwrite<double[]>(static_cast<std::size_t>(n) * n * lanes);
+    std::vector<double> group(static_cast<std::size_t>(n) * lanes);
     for (int e0 = 0; e0 < k; e0 += lanes) {
         const int count = std::min(lanes, k - e0);
         double shift[lanes];
@@ -303,7 +299,7 @@ void ShiftedPencil::solve(std::span<const double> u, Matrix& b) const {
             for (int l = 0; l < lanes; ++l)
                 group[static_cast<std::size_t>(i) * lanes + l] = yt(e0 + std::min(l, count - 1), i);
         int bad[lanes];
-        solve_hessenberg_lanes<lanes>(m_h, shift, group.data(), work.data(), bad);
+        solve_hessenberg_lanes(m_h, shift, group.data(), work.get(), bad);
         for (int l = 0; l < count; ++l)
             if (bad[l]) throw NumericalError(cat("ShiftedPencil: singular at u = ", shift[l], " (size ", n, ")"));
         for (int i = 0; i < n; ++i)
