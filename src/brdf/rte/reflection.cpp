@@ -196,7 +196,13 @@ Reflection Reflection::with_orders(int orders) const {
     setup.orders = orders;
     std::vector<OrderSolution> half;
     if (!m_half.empty()) half.assign(m_half.begin(), m_half.begin() + orders);
-    return Reflection(std::move(setup), std::move(half), m_family);
+    Reflection cut(std::move(setup), std::move(half), m_family);
+    // Order m's operators do not depend on how many orders there are: the first `orders` of what
+    // this one has built (the stream check's probes, evaluated at its directions) serve the cut
+    // too, not built again for the table's grids.
+    if (m_nystrom) cut.m_nystrom = m_nystrom;
+    if (m_top_bounce) cut.m_top_bounce = m_top_bounce;
+    return cut;
 }
 
 void Reflection::setup_rough() {
