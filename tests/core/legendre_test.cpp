@@ -130,6 +130,24 @@ TEST(Legendre, BatchedSeriesEqualsTheScalarSumBitForBit) {
     EXPECT_THROW(legendre_series(beta, two, too_few), InternalError);
 }
 
+// max_abs and max_abs_diff keep eight running maxima: the largest magnitude is found wherever it
+// sits (every position of sizes around the eight lanes, the tail past the last eight included),
+// and a NaN is passed over as one running maximum passes it.
+TEST(Linalg, MaxAbsFindsTheLargestMagnitudeAnywhere) {
+    for (int n : {1, 7, 8, 9, 16, 17, 64, 67})
+        for (int at = 0; at < n; ++at) {
+            Matrix a(1, n), zero(1, n);
+            for (int k = 0; k < n; ++k) a(0, k) = 0.5 * std::sin(1.0 + k);
+            a(0, at) = -3.0;
+            EXPECT_EQ(max_abs(a), 3.0) << "size " << n << " at " << at;
+            EXPECT_EQ(max_abs_diff(zero, a), 3.0) << "size " << n << " at " << at;
+        }
+    Matrix b(3, 5, -2.0);
+    b(1, 2) = std::nan("");
+    EXPECT_EQ(max_abs(b), 2.0);
+    EXPECT_EQ(max_abs(Matrix(2, 2, 0.0)), 0.0);
+}
+
 TEST(Linalg, LuSolvesAndRejectsSingular) {
     Matrix a(3, 3);
     const double v[9] = {0, 2, 1, 1, 1, 1, 4, 0, 3}; // needs pivoting (a_00 = 0)

@@ -147,6 +147,10 @@ Reflection::Reflection(StackSetup setup, std::vector<OrderSolution> half_space,
         std::vector<double> f(l.s.size(), 1.0);
         for (std::size_t i = 0; i < l.s.size(); ++i) {
             if (!crosses[i]) continue;
+            if (std::abs(l.index - n_other) <= same_index) { // no interface: Fresnel's 0, not integrated
+                f[i] = 0.0;
+                continue;
+            }
             auto& pf = per_piece[l.piece_of[i]];
             const StreamPiece& piece = m_setup.pieces[l.piece_of[i]];
             // Product integration interpolates the field across the piece with its Gauss nodes'
