@@ -462,16 +462,26 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
         const int inner = std::max(1, cpus / static_cast<int>(count)); // few samples: their orders in parallel
         parallel_for(static_cast<int>(count), cpus,
                      [&](int k) { grids[k] = material.samples[which[first + k]].reflection.order_grid(mu, inner); });
-        parallel_for(e, cpus, [&](int o) { // one zenith row of the colour grid per task
-            for (std::size_t k = 0; k < count; ++k) {
-                const rte::OrderGrid& g = grids[k];
-                const Rgb& weight = weights[first + k];
-                for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
-                    const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::numbers::inv_pi;
-                    for (int i = 0; i < e; ++i) {
-                        double* dst = &in.fourier[((static_cast<std::size_t>(o) * e + i) * mp + m) * channels];
-                        const double v = factor * g.orders[m](o, i);
-                        for (int c = 0; c < channels; ++c) dst[c] += weight[c] * v;
+        // One zenith row of the colour grid per task, eight nodes of it at a time: a node's orders
+        // and channels are contiguous (the fill reads them so), a grid's row of one order is
+        // contiguous along the nodes, so each sample and order adds one cache line of its grid to
+        // eight nodes' entries that stay in the core's first cache (a whole row's, every order's
+        // pass striding over 52 KB of it, had been 3 % of the seed's CPU). Each entry is summed
+        // over the samples in order, as before.
+        constexpr int nodes_per_pass = 8;
+        parallel_for(e, cpus, [&](int o) {
+            for (int i0 = 0; i0 < e; i0 += nodes_per_pass) {
+                const int i1 = std::min(e, i0 + nodes_per_pass);
+                for (std::size_t k = 0; k < count; ++k) {
+                    const rte::OrderGrid& g = grids[k];
+                    const Rgb& weight = weights[first + k];
+                    for (int m = 0; m < static_cast<int>(g.orders.size()); ++m) {
+                        const double factor = (m == 0 ? 1.0 : 2.0) * (m % 2 == 0 ? 1.0 : -1.0) * std::numbers::inv_pi;
+                        for (int i = i0; i < i1; ++i) {
+                            double* dst = &in.fourier[((static_cast<std::size_t>(o) * e + i) * mp + m) * channels];
+                            const double v = factor * g.orders[m](o, i);
+                            for (int c = 0; c < channels; ++c) dst[c] += weight[c] * v;
+                        }
                     }
                 }
             }
