@@ -11,6 +11,8 @@
 //   BM_Order/method/m/omega          one order (C++ reference), m = 0, 1, 4, 16: time and iterations.
 //   BM_PencilShifts/streams          ShiftedPencil::solve of a table grid's 181 shifts (the Nystrom
 //                                    evaluation off the nodes of one order), one thread.
+//   BM_PencilSetup/streams           ShiftedPencil's construction (the Hessenberg reduction of one
+//                                    order's D^-1 G), one thread.
 // Iterations stop at the "default" accuracy's tolerance (1e-8 relative change).
 // The fixed point at omega -> 1 runs to SolveControl's default cap (100000 sweeps) at m = 0: it is the
 // baseline the doubling replaces, and slow on purpose.
@@ -101,17 +103,36 @@ BENCHMARK(BM_Order)
     ->ArgNames({"method", "m", "omega"})
     ->Unit(benchmark::kMillisecond);
 
+// A made-up G of the Nystrom operators' shape (the identity less a small dense part) and the node
+// cosines as D, spanning `smallest` to 1.
+brdf::Matrix pencil_g(int n) {
+    brdf::Matrix g(n, n);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) g(i, j) = (i == j ? 1.0 : 0.0) - 0.4 * std::cos(0.3 * i * j + 0.1 * j) / n;
+    return g;
+}
+
+std::vector<double> pencil_d(int n) {
+    std::vector<double> d(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) d[i] = std::pow(1e-4, i / (n - 1.0));
+    return d;
+}
+
+void BM_PencilSetup(benchmark::State& state) {
+    const int n = static_cast<int>(state.range(0));
+    const brdf::Matrix g = pencil_g(n);
+    const std::vector<double> d = pencil_d(n);
+    for (auto _ : state) benchmark::DoNotOptimize(brdf::ShiftedPencil(g, d));
+}
+BENCHMARK(BM_PencilSetup)->Arg(32)->Arg(64)->Arg(128)->ArgName("streams")->Unit(benchmark::kMicrosecond);
+
 // The shifts of one order's table grid (181 zenith angles) against a pencil of `streams` nodes, as
-// Reflection::half_space_reflector solves them (its G is the test's made-up one: the time does not
-// depend on the values).
+// Reflection::half_space_reflector solves them (the time does not depend on G's values).
 void BM_PencilShifts(benchmark::State& state) {
     const int n = static_cast<int>(state.range(0)), shifts = 181;
-    brdf::Matrix g(n, n);
-    std::vector<double> d(static_cast<std::size_t>(n)), u(static_cast<std::size_t>(shifts));
-    for (int i = 0; i < n; ++i) {
-        d[i] = std::pow(1e-4, i / (n - 1.0));
-        for (int j = 0; j < n; ++j) g(i, j) = (i == j ? 1.0 : 0.0) - 0.4 * std::cos(0.3 * i * j + 0.1 * j) / n;
-    }
+    const brdf::Matrix g = pencil_g(n);
+    const std::vector<double> d = pencil_d(n);
+    std::vector<double> u(static_cast<std::size_t>(shifts));
     for (int e = 0; e < shifts; ++e) u[e] = std::cos(std::acos(-1.0) / 2.0 * e / (shifts - 1.0)) + 1e-6;
     const brdf::ShiftedPencil pencil(g, d);
     brdf::Matrix b(n, shifts);
