@@ -124,9 +124,11 @@ static double8 smith_lambda(int lobe, double alpha, double8 mu, double8 s) {
 }
 
 // The three channels' planes are separate buffers: the host's table planes themselves on a CPU
-// device (cl_table_fill.cpp maps them with CL_MEM_USE_HOST_PTR).
+// device (cl_table_fill.cpp maps them with CL_MEM_USE_HOST_PTR); so is `orders`, the grid of
+// Fourier orders (FillInputs::fourier), there.
 __kernel void table_fill(__global const FillParams* params_in, __global const double* data,
-                         __global double* red, __global double* green, __global double* blue) {
+                         __global const double* orders, __global double* red, __global double* green,
+                         __global double* blue) {
     const FillParams p = *params_in;
     // Cells of the first half of phi_d, each lane writing its cell and the mirror phi_d -> pi -
     // phi_d (table_fill.cpp: fill_table_cpu says why they are equal).
@@ -217,7 +219,7 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
                     for (int q = 0; q < vectors; ++q) cells[q][l] = (double8)(0.0);
                     continue;
                 }
-                __global const double* fourier = data + p.fourier_offset + m0 * p.channels;
+                __global const double* fourier = orders + m0 * p.channels;
                 if (p.channels == 1) { // a grey table: one channel, one double8 per block
                     double8 v0 = (double8)(0.0), v1 = (double8)(0.0), g0 = (double8)(0.0), g1 = (double8)(0.0);
                     if (pair) {

@@ -1,9 +1,10 @@
 #pragma once
 // Parameters of the table-fill kernel (kernels/table_fill.cl), shared with the host
-// (src/brdf/model/cl_table_fill.cpp static_asserts every size and offset). The arrays of
-// brdf::model::FillInputs travel in one buffer of doubles; the offsets below count doubles from its
-// start. The output holds the three channel planes of formats::BrdfTable one after another:
-// output[c * TF_CELLS + cell].
+// (src/brdf/model/cl_table_fill.cpp static_asserts every size and offset). FillInputs::fourier
+// (grid * grid * padded orders * channels) has a buffer of its own, the host's vector itself on a
+// CPU device; the other arrays of brdf::model::FillInputs travel in one buffer of doubles, and the
+// offsets below count doubles from its start. The three channel planes of formats::BrdfTable are
+// one buffer each.
 
 #include "shared/types.h"
 
@@ -22,7 +23,6 @@
 #define TF_LANES 8
 
 typedef struct FillParams {
-    brdf_i64 fourier_offset;      ///< FillInputs::fourier, grid * grid * padded orders * channels
     brdf_i64 phase_offset;        ///< FillInputs::phase, samples * phase_points * channels
     brdf_i64 refractive_index_offset; ///< FillInputs::refractive_index, samples
     brdf_i64 transmission_offset; ///< FillInputs::transmission, samples * fresnel_points

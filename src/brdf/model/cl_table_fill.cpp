@@ -23,26 +23,25 @@
 
 namespace brdf::model {
 
-static_assert(sizeof(FillParams) == 112);
-static_assert(offsetof(FillParams, fourier_offset) == 0);
-static_assert(offsetof(FillParams, phase_offset) == 8);
-static_assert(offsetof(FillParams, refractive_index_offset) == 16);
-static_assert(offsetof(FillParams, transmission_offset) == 24);
-static_assert(offsetof(FillParams, geometry_offset) == 32);
-static_assert(offsetof(FillParams, tau_offset) == 40);
-static_assert(offsetof(FillParams, cell_count) == 48);
-static_assert(offsetof(FillParams, grid) == 56);
-static_assert(offsetof(FillParams, orders) == 60);
-static_assert(offsetof(FillParams, samples) == 64);
-static_assert(offsetof(FillParams, phase_points) == 68);
-static_assert(offsetof(FillParams, fresnel_points) == 72);
-static_assert(offsetof(FillParams, channels) == 76);
-static_assert(offsetof(FillParams, lobe_fresnel_offset) == 80);
-static_assert(offsetof(FillParams, lobe_alpha) == 88);
-static_assert(offsetof(FillParams, lobe) == 96);
-static_assert(offsetof(FillParams, lobe_separable) == 100);
-static_assert(offsetof(FillParams, lobe_points) == 104);
-static_assert(offsetof(FillParams, pad2) == 108);
+static_assert(sizeof(FillParams) == 104);
+static_assert(offsetof(FillParams, phase_offset) == 0);
+static_assert(offsetof(FillParams, refractive_index_offset) == 8);
+static_assert(offsetof(FillParams, transmission_offset) == 16);
+static_assert(offsetof(FillParams, geometry_offset) == 24);
+static_assert(offsetof(FillParams, tau_offset) == 32);
+static_assert(offsetof(FillParams, cell_count) == 40);
+static_assert(offsetof(FillParams, grid) == 48);
+static_assert(offsetof(FillParams, orders) == 52);
+static_assert(offsetof(FillParams, samples) == 56);
+static_assert(offsetof(FillParams, phase_points) == 60);
+static_assert(offsetof(FillParams, fresnel_points) == 64);
+static_assert(offsetof(FillParams, channels) == 68);
+static_assert(offsetof(FillParams, lobe_fresnel_offset) == 72);
+static_assert(offsetof(FillParams, lobe_alpha) == 80);
+static_assert(offsetof(FillParams, lobe) == 88);
+static_assert(offsetof(FillParams, lobe_separable) == 92);
+static_assert(offsetof(FillParams, lobe_points) == 96);
+static_assert(offsetof(FillParams, pad2) == 100);
 static_assert(static_cast<int>(FillInputs::Lobe::Ggx) == 1 && static_cast<int>(FillInputs::Lobe::Beckmann) == 2);
 static_assert(TF_CELLS == formats::cells);
 static_assert(TF_THETA_H_BINS == formats::theta_h_bins);
@@ -110,15 +109,14 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     validate(in);
     FillParams params{};
     std::vector<double> data;
-    data.reserve(in.fourier.size() + in.phase.size() + in.refractive_index.size() + in.transmission.size() +
-                 in.tau.size() + in.lobe_fresnel.size() +
+    data.reserve(in.phase.size() + in.refractive_index.size() + in.transmission.size() + in.tau.size() +
+                 in.lobe_fresnel.size() +
                  2 * (formats::theta_h_bins + formats::theta_d_bins + formats::phi_d_bins));
     auto append = [&data](const std::vector<double>& v) {
         const auto offset = static_cast<brdf_i64>(data.size());
         data.insert(data.end(), v.begin(), v.end());
         return offset;
     };
-    params.fourier_offset = append(in.fourier);
     params.phase_offset = append(in.phase);
     params.refractive_index_offset = append(in.refractive_index);
     params.transmission_offset = append(in.transmission);
@@ -150,6 +148,17 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     ::cl::Buffer data_buf(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, data.size() * sizeof(double), data.data(),
                           &err);
     brdf::cl::check(err, "OpenCL table fill: create buffer inputs");
+    // The orders' grid (4-5 MB at "reference" and "default") read where it lies on a CPU device: it
+    // had been copied twice, into `data` and into the device's buffer, on one core while the other
+    // waited (3.8 ms of the HG table's 50). A GPU gets its copy. The kernel only reads it.
+    cl_device_type type = 0;
+    brdf::cl::check(ctx->device().getInfo(CL_DEVICE_TYPE, &type), "OpenCL table fill: query device type");
+    static const double no_orders = 0.0;
+    const double* grid = in.fourier.empty() ? &no_orders : in.fourier.data();
+    const std::size_t grid_bytes = std::max<std::size_t>(1, in.fourier.size()) * sizeof(double);
+    const cl_mem_flags in_place = (type & CL_DEVICE_TYPE_CPU) != 0 ? CL_MEM_USE_HOST_PTR : CL_MEM_COPY_HOST_PTR;
+    ::cl::Buffer fourier_buf(context, CL_MEM_READ_ONLY | in_place, grid_bytes, const_cast<double*>(grid), &err);
+    brdf::cl::check(err, "OpenCL table fill: create buffer orders");
     // The kernel writes the table's planes in place where the device can (PoCL on the CPU: no
     // 35 MB device buffer to fault in, nor a copy back); a GPU copies them at the map below. The
     // kernel writes every cell, below the horizon too: the planes start unwritten.
@@ -163,8 +172,9 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     }
     brdf::cl::check(kernel.setArg(0, param_buf), "OpenCL table fill: set argument parameters");
     brdf::cl::check(kernel.setArg(1, data_buf), "OpenCL table fill: set argument inputs");
+    brdf::cl::check(kernel.setArg(2, fourier_buf), "OpenCL table fill: set argument orders");
     for (int c = 0; c < 3; ++c)
-        brdf::cl::check(kernel.setArg(2 + c, out_bufs[c]), "OpenCL table fill: set argument output");
+        brdf::cl::check(kernel.setArg(3 + c, out_bufs[c]), "OpenCL table fill: set argument output");
 
     // A work item per TF_LANES cells of the first phi_d half (each writes their mirrors too); the
     // global size is rounded up to a multiple of the local size, and the kernel ignores cells past
