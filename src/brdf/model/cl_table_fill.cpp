@@ -198,6 +198,8 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     return table;
 }
 
+void load_fill_program() { brdf::cl::Context::shared()->program("table_fill"); }
+
 formats::BrdfTable fill_table(const FillInputs& in, Device device) {
     if (device == Device::OpenCL) return fill_table_opencl(in);
     return fill_table_cpu(in, available_cpus());

@@ -17,6 +17,11 @@ namespace brdf::model {
 /// indices, DeviceError on device failure (or without a device).
 formats::BrdfTable fill_table_opencl(const FillInputs& in);
 
+/// Builds (or finds in PoCL's cache) the fill's program on the OpenCL device, for a caller that has
+/// other work to do meanwhile: fill_table_opencl then finds it built. DeviceError as
+/// fill_table_opencl's.
+void load_fill_program();
+
 /// fill_table_opencl or fill_table_cpu (on every core) by device.
 formats::BrdfTable fill_table(const FillInputs& in, Device device);
 
