@@ -91,7 +91,7 @@ struct SolvedMaterial {
     /// interpolated only the multiply scattered light: under no or a smooth top, a half-space or
     /// layers of one index over a grey substrate).
     std::vector<SingleScatteringSample> single_only;
-    std::string device; ///< "opencl: DEVICE NAME" or "cpu"
+    std::string device; ///< device_label of the batch's device; empty when the batch had nothing for it
     std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
     /// Relative BRDF difference between the chosen stream count and the last one checked against
     /// it on the hardest wavelengths (3/4 of it, or 1.5 times as many): the error estimate of the
@@ -175,9 +175,20 @@ void fit_into_gamut(SolvedMaterial& material);
 /// The one entry that solves: every stack (one per sample) with the settings on the device. The
 /// semi-infinite layers' Fourier orders of all stacks go to the device in one batch (OpenCL or the
 /// C++ reference); the finite layers and the adding run on the host, one stack per core. Sets
-/// *device_name ("opencl: NAME" or "cpu") when given.
+/// *device_name (device_label) when given, and the device ran the batch: a batch with nothing for
+/// the OpenCL device (the stream check's probes were every sample) does not wait for it to open.
 std::vector<rte::Reflection> solve_stacks(std::span<const rte::Stack> stacks, const rte::ReflectionSettings& settings,
                                           Device device, std::string* device_name = nullptr);
+
+/// "opencl: NAME" (opening the shared OpenCL context where it is not open yet: DeviceError without
+/// a device) or "cpu": what a report's `device` says.
+std::string device_label(Device device);
+
+/// Who makes sure of the OpenCL device where the batch had nothing for it (solve_stacks did not
+/// wait for it): solve_material before it returns (a device asked for must be there: DeviceError
+/// otherwise, and SolvedMaterial::device names it), or its caller, which uses the device next and
+/// names it itself (compute: the table fill, then device_label before anything is written).
+enum class DeviceCheck { BeforeReturn, Caller };
 
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).
@@ -188,6 +199,7 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device)
 /// "NAME: about 2 min 10 s to solve and tabulate (41 samples at 64 streams)". compute shows it as
 /// a line of its own.
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings,
-                              const std::function<void(const std::string&)>& note = {});
+                              const std::function<void(const std::string&)>& note = {},
+                              DeviceCheck device_check = DeviceCheck::BeforeReturn);
 
 } // namespace brdf::model

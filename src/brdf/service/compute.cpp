@@ -210,7 +210,8 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
         log::info(spec.name, ": tables are solved to ", tolerance, ", not the requested ", spec.accuracy.tolerance,
                   " (finer than the tables can hold)");
     model::SolvedMaterial solved = model::solve_material(spec, options.device, model::settings_for(tolerance),
-                                                         [&progress](const std::string& text) { progress.note(text); });
+                                                         [&progress](const std::string& text) { progress.note(text); },
+                                                         model::DeviceCheck::Caller);
     progress.stage("table");
     auto t = std::chrono::steady_clock::now();
     // The MERL/EXR table only when one of them is written (the renderer formats use `fill`): a
@@ -237,6 +238,9 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
         table->generator = std::string(generator_string);
         table->colorspace = std::string(material::to_string(spec.colorspace)); // EXR chromaticities follow
     }
+    // The device asked for, where the batch had nothing for it and no table was filled: there
+    // before anything is written (DeviceError otherwise), and named in the report.
+    if (solved.device.empty()) solved.device = model::device_label(options.device);
     solved.seconds.table = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
     progress.stage("write");
     t = std::chrono::steady_clock::now();
