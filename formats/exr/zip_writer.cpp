@@ -7,7 +7,7 @@
 #include <brdf/core/log.h>
 #include <brdf/core/threads.h>
 
-#include <isa-l/igzip_lib.h>
+#include <libdeflate.h>
 #include <openexr.h>
 
 #include <algorithm>
@@ -15,51 +15,30 @@
 #include <bit>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <mutex>
-#include <vector>
+#include <new>
 
 namespace brdf::formats::detail {
 namespace {
 
 // OpenEXR's ZIP_COMPRESSION: 16 scanlines per block (the file format's definition).
 constexpr int zip_lines = 16;
-// ISA-L's igzip (Intel's deflate, AVX-512 and AVX2 kernels picked at run time), level 1: a seed
-// table's 17.5 MB to 10.1 MB, its EXR write 99.7 -> 63.3 ms and the run's CPU 0.713 -> 0.665 s
-// against libdeflate's fastest level (9.8 MB); igzip's level 2 gave 10.0 MB at 65.7 ms, its level
-// 0 11.4 MB and more CPU time in all (the larger file's write). The tables are written for every
-// material, and their ZIP blocks were the largest part of a seed run's CPU after the table fill.
+// libdeflate's fastest level: 9.8 MB for a seed table's 17.5 MB where level 4 (OpenEXR's own
+// default) gives 9.7 MB at 1.2 times the time; the tables are written for every material.
 constexpr int deflate_level = 1;
 
-// A thread's deflate state: the hash tables igzip's level works in, and its output.
-struct Compressor {
-    std::vector<unsigned char> level_buffer = std::vector<unsigned char>(ISAL_DEF_LVL1_DEFAULT);
-    std::vector<unsigned char> out;
+struct CompressorDeleter {
+    void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
 };
-
-// `in` as one zlib stream (header, deflate, Adler-32: what OpenEXR's ZIP blocks hold) in c.out;
-// 0 when it does not fit in `size` bytes (the block is then stored raw).
-std::size_t zlib_compress(unsigned char* in, std::size_t size, Compressor& c) {
-    c.out.resize(size);
-    isal_zstream stream;
-    isal_deflate_stateless_init(&stream);
-    stream.level = deflate_level;
-    stream.level_buf = c.level_buffer.data();
-    stream.level_buf_size = static_cast<std::uint32_t>(c.level_buffer.size());
-    stream.gzip_flag = IGZIP_ZLIB;
-    stream.end_of_stream = 1;
-    stream.flush = NO_FLUSH;
-    stream.next_in = in;
-    stream.avail_in = static_cast<std::uint32_t>(size);
-    stream.next_out = c.out.data();
-    stream.avail_out = static_cast<std::uint32_t>(c.out.size());
-    return isal_deflate_stateless(&stream) == COMP_OK ? stream.total_out : 0;
-}
+using Compressor = std::unique_ptr<libdeflate_compressor, CompressorDeleter>;
 
 // One block: the Xdr bytes of lines [y0, y0 + lines) of every plane, then OpenEXR's ZIP transform
 // (even/odd byte split and the byte predictor), compressed. `scratch` holds the Xdr bytes and the
 // transformed ones. Stored raw when compression does not shrink it, as OpenEXR does.
 std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int y0, int lines,
-                                     Compressor& compressor, std::vector<unsigned char>& scratch) {
+                                     libdeflate_compressor* compressor,
+                                     std::vector<unsigned char>& scratch) {
     const std::size_t row_bytes = sizeof(float) * exr_width;
     const std::size_t size = row_bytes * planes.size() * static_cast<std::size_t>(lines);
     scratch.resize(2 * size);
@@ -97,9 +76,12 @@ std::vector<unsigned char> zip_block(const std::vector<PlaneSource>& planes, int
     if (size > 1) split[half] = delta(xdr[1], xdr[2 * (half - 1)]);
     for (std::size_t i = 1; half + i < size; ++i)
         split[half + i] = delta(xdr[2 * i + 1], xdr[2 * i - 1]);
-    const std::size_t packed = zlib_compress(split, size, compressor);
+    std::vector<unsigned char> out(libdeflate_zlib_compress_bound(compressor, size));
+    const std::size_t packed =
+        libdeflate_zlib_compress(compressor, split, size, out.data(), out.size());
     if (packed == 0 || packed >= size) return std::vector<unsigned char>(xdr, xdr + size);
-    return std::vector<unsigned char>(compressor.out.data(), compressor.out.data() + packed);
+    out.resize(packed);
+    return out;
 }
 
 // The Core context writing through an AtomicFile; its errors are collected, the first kept.
@@ -207,14 +189,18 @@ void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneS
         bool writing = false;
         std::mutex write_mutex;
         // A compressor and scratch per thread; each thread takes the next block from `next_block`.
-        std::vector<Compressor> compressors(static_cast<std::size_t>(threads));
+        std::vector<Compressor> compressors;
         std::vector<std::vector<unsigned char>> scratch(static_cast<std::size_t>(threads));
+        for (int t = 0; t < threads; ++t) {
+            compressors.emplace_back(libdeflate_alloc_compressor(deflate_level));
+            if (!compressors.back()) throw std::bad_alloc();
+        }
         std::atomic<int> next_block{0};
         // Block b compressed, then handed on for writing.
         const auto compress_and_write = [&](int b, int t) {
             const int y0 = b * zip_lines;
             std::vector<unsigned char> block = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0),
-                                                         compressors[t], scratch[t]);
+                                                         compressors[t].get(), scratch[t]);
             // The thread that finds the next block ready writes the run that is ready, outside the
             // lock, while the others go on compressing.
             std::unique_lock lock(write_mutex);
