@@ -235,7 +235,7 @@ namespace {
 // elimination reaches it, in the slot where the factor's row will be, so a step reads what the last
 // one wrote instead of the whole matrix made first; and the back substitution subtracts each
 // solved unknown from the rows above it, independent updates, where each row's sum of products had
-// waited on every subtraction in turn. A table grid's 181 shifts at 64 streams: 0.72 -> 0.58 ms
+// waited on every subtraction in turn. A table grid's 181 shifts at 64 streams: 0.72 -> 0.56 ms
 // (bench_solver BM_PencilShifts, with the products around it); the HG half-space's solve, its
 // stream check evaluating the probes, 31.6 -> 24.8 ms (bench_pipeline BM_SolveHg). `bad` receives
 // the shifts singular to working precision (1) or not (0). `work` holds n x n x hessenberg_lanes
