@@ -453,6 +453,7 @@ Context::Context(ContextOptions options) : m_options(std::move(options)) {
         device_info<std::size_t>(m_device, CL_DEVICE_MAX_WORK_GROUP_SIZE, "max work-group size");
     m_info.compute_units =
         device_info<cl_uint>(m_device, CL_DEVICE_MAX_COMPUTE_UNITS, "compute units");
+    m_info.cpu = (device_info<cl_device_type>(m_device, CL_DEVICE_TYPE, "type") & CL_DEVICE_TYPE_CPU) != 0;
 
     cl_int err = CL_SUCCESS;
     m_context = ::cl::Context(m_device, nullptr, nullptr, nullptr, &err);

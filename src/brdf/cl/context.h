@@ -28,6 +28,7 @@ struct DeviceInfo {
     std::size_t global_mem_bytes = 0, local_mem_bytes = 0, max_work_group_size = 0;
     unsigned compute_units = 0;
     std::string opencl_c_version; ///< e.g. "OpenCL C 1.2 PoCL"
+    bool cpu = false; ///< CL_DEVICE_TYPE_CPU (PoCL): the device works in the host's own memory
 };
 
 /// true when some OpenCL platform has a device with cl_khr_fp64 (tests use it to GTEST_SKIP). Never

@@ -151,12 +151,10 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     // The orders' grid (4-5 MB at "reference" and "default") read where it lies on a CPU device: it
     // had been copied twice, into `data` and into the device's buffer, on one core while the other
     // waited (3.8 ms of the HG table's 50). A GPU gets its copy. The kernel only reads it.
-    cl_device_type type = 0;
-    brdf::cl::check(ctx->device().getInfo(CL_DEVICE_TYPE, &type), "OpenCL table fill: query device type");
     static const double no_orders = 0.0;
     const double* grid = in.fourier.empty() ? &no_orders : in.fourier.data();
     const std::size_t grid_bytes = std::max<std::size_t>(1, in.fourier.size()) * sizeof(double);
-    const cl_mem_flags in_place = (type & CL_DEVICE_TYPE_CPU) != 0 ? CL_MEM_USE_HOST_PTR : CL_MEM_COPY_HOST_PTR;
+    const cl_mem_flags in_place = ctx->info().cpu ? CL_MEM_USE_HOST_PTR : CL_MEM_COPY_HOST_PTR;
     ::cl::Buffer fourier_buf(context, CL_MEM_READ_ONLY | in_place, grid_bytes, const_cast<double*>(grid), &err);
     brdf::cl::check(err, "OpenCL table fill: create buffer orders");
     // The kernel writes the table's planes in place where the device can (PoCL on the CPU: no

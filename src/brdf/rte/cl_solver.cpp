@@ -227,9 +227,7 @@ ClSolverKernel resolve_on(brdf::cl::Context& ctx, ClSolverKernel requested) {
         if (v == "serial") return ClSolverKernel::Serial;
         throw InputError(cat("BRDF_OPENCL_KERNEL='", v, "': expected 'cooperative' or 'serial'"));
     }
-    cl_device_type type = 0;
-    brdf::cl::check(ctx.device().getInfo(CL_DEVICE_TYPE, &type), "OpenCL order solver: query device type");
-    return (type & CL_DEVICE_TYPE_CPU) != 0 ? ClSolverKernel::Serial : ClSolverKernel::Cooperative;
+    return ctx.info().cpu ? ClSolverKernel::Serial : ClSolverKernel::Cooperative;
 }
 
 } // namespace
@@ -310,9 +308,7 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
     // device (PoCL: host memory) a few hundred problems per launch keep every core busy, and 128
     // MiB caps the process's peak: the seed at "reference" (2255 problems of 64 streams) held
     // 916 MB in one launch.
-    cl_device_type type = 0;
-    brdf::cl::check(ctx->device().getInfo(CL_DEVICE_TYPE, &type), "OpenCL order solver: query device type");
-    const std::size_t cap = (type & CL_DEVICE_TYPE_CPU) != 0 ? std::size_t{128} << 20 : std::size_t{1} << 30;
+    const std::size_t cap = ctx->info().cpu ? std::size_t{128} << 20 : std::size_t{1} << 30;
     const std::size_t budget = workspace_budget_bytes > 0
                                    ? workspace_budget_bytes
                                    : std::min<std::size_t>(static_cast<std::size_t>(max_alloc), cap);
@@ -322,7 +318,7 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
     // residuals checked after while the device stood idle.
     for (const auto& [first, last] :
          launch_ranges(problems, budget, serial ? ClSolverKernel::Serial : ClSolverKernel::Cooperative))
-        solve_range(*ctx, kernel, serial, (type & CL_DEVICE_TYPE_CPU) != 0, local_size, problems, first, last,
+        solve_range(*ctx, kernel, serial, ctx->info().cpu, local_size, problems, first, last,
                     method, control, out);
     return out;
 }
