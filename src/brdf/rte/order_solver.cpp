@@ -94,16 +94,26 @@ OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& cont
             b(i, j) = amb_riccati_b(om, pr.p_minus(i, j), mu[i], mu[j]);
         }
     }
+    Matrix divisor(n, n);
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) divisor(i, j) = amb_fixed_point_divisor(mu[i], mu[j]);
     OrderSolution s;
     s.x = Matrix(n, n);
+    Matrix next(n, n), inner(n, n);
     double previous = 0.0, before = 0.0; // the changes of the last two sweeps
     for (s.iterations = 1; s.iterations <= control.max_iterations; ++s.iterations) {
-        // X right + X C X as X (right + C X): three products a sweep, not four.
-        Matrix next = b + left * s.x + s.x * (right + c * s.x);
+        // next = B + left X + X (right + C X); X right + X C X as X (right + C X): three products a
+        // sweep, not four. Summed into the two buffers by gemm's beta = 1, the same additions in
+        // the same order as the expression's, without its five new matrices a sweep.
+        next = b;
+        gemm(left, false, s.x, false, next, 1.0, 1.0);
+        inner = right;
+        gemm(c, false, s.x, false, inner, 1.0, 1.0);
+        gemm(s.x, false, inner, false, next, 1.0, 1.0);
         for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) next(i, j) /= amb_fixed_point_divisor(mu[i], mu[j]);
+            for (int j = 0; j < n; ++j) next(i, j) /= divisor(i, j);
         const double change = max_abs_diff(next, s.x);
-        s.x = std::move(next);
+        std::swap(s.x, next);
         if (!finite(s.x)) throw NumericalError(cat("fixed-point iteration diverged at order ", pr.m));
         const double target = control.tolerance * max_abs(s.x);
         if (change <= target) {
