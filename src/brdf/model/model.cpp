@@ -6,6 +6,7 @@
 #include <brdf/core/progress.h>
 #include <brdf/core/threads.h>
 #include <brdf/material/colour.h>
+#include <brdf/model/cl_table_fill.h>
 #include <brdf/rte/cl_solver.h>
 
 #include <chrono>
@@ -647,9 +648,10 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     std::future<void> device_opening;
     if (device == Device::OpenCL) {
         start_worker_threads();
-        device_opening = std::async(std::launch::async, [] {
+        device_opening = std::async(std::launch::async, [device_check] {
             try {
                 cl::Context::shared();
+                if (device_check == DeviceCheck::CallerFillsTable) load_fill_program();
             } catch (...) {
             }
         });
@@ -712,6 +714,9 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
         if (!kept[k]) unsolved.push_back(stacks[k]);
     std::vector<rte::Reflection> reflections = solve_stacks(unsolved, rs, device, &out.device);
     if (out.device.empty() && device_check == DeviceCheck::BeforeReturn) out.device = device_label(device);
+    // The caller's device check: returning does not wait for the device to open (HG g 0.5: its
+    // solve is done 15 ms before PoCL has loaded LLVM, time the table's grids use now).
+    if (device_check != DeviceCheck::BeforeReturn && device_opening.valid()) out.device_opening = device_opening.share();
     for (std::size_t k = 0, next = 0; k < stacks.size(); ++k) {
         rte::Reflection r = kept[k] ? std::move(*kept[k]) : std::move(reflections[next++]);
         out.samples.push_back(WavelengthSolution{optics[k].wavelength_nm, weights[k], mo.single_weights[k],

@@ -10,6 +10,7 @@
 
 #include <array>
 #include <functional>
+#include <future>
 #include <optional>
 #include <span>
 #include <string>
@@ -92,6 +93,10 @@ struct SolvedMaterial {
     /// layers of one index over a grey substrate).
     std::vector<SingleScatteringSample> single_only;
     std::string device; ///< device_label of the batch's device; empty when the batch had nothing for it
+    /// Where the caller makes sure of the device (DeviceCheck::Caller): the OpenCL device's opening,
+    /// which may still be under way on a thread of its own (its end is waited for when the last
+    /// copy goes; cl::Context::shared() waits for it too). Invalid otherwise.
+    std::shared_future<void> device_opening;
     std::size_t wavelengths_interpolated = 0; ///< of the spectrum, not solved (select_wavelengths)
     /// Relative BRDF difference between the chosen stream count and the last one checked against
     /// it on the hardest wavelengths (3/4 of it, or 1.5 times as many): the error estimate of the
@@ -187,8 +192,11 @@ std::string device_label(Device device);
 /// Who makes sure of the OpenCL device where the batch had nothing for it (solve_stacks did not
 /// wait for it): solve_material before it returns (a device asked for must be there: DeviceError
 /// otherwise, and SolvedMaterial::device names it), or its caller, which uses the device next and
-/// names it itself (compute: the table fill, then device_label before anything is written).
-enum class DeviceCheck { BeforeReturn, Caller };
+/// names it itself (compute: the table fill, then device_label before anything is written). For
+/// the caller, the device goes on opening beside its work (SolvedMaterial::device_opening); with
+/// CallerFillsTable that thread then loads the table fill's program too (load_fill_program), so
+/// that the caller starts no thread of its own while PoCL may still be loading its libraries.
+enum class DeviceCheck { BeforeReturn, Caller, CallerFillsTable };
 
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).

@@ -209,27 +209,20 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     if (tolerance > spec.accuracy.tolerance)
         log::info(spec.name, ": tables are solved to ", tolerance, ", not the requested ", spec.accuracy.tolerance,
                   " (finer than the tables can hold)");
-    model::SolvedMaterial solved = model::solve_material(spec, options.device, model::settings_for(tolerance),
-                                                         [&progress](const std::string& text) { progress.note(text); },
-                                                         model::DeviceCheck::Caller);
-    progress.stage("table");
-    auto t = std::chrono::steady_clock::now();
     // The MERL/EXR table only when one of them is written (the renderer formats use `fill`): a
     // table is 35 MB, filled once (an empty one first would be zeroed and marked for nothing).
     const bool tabulated =
         std::any_of(formats.begin(), formats.end(), [](const std::string& f) { return f == "merl" || f == "exr"; });
-    // The fill's program loads (PoCL reads it from its cache through LLVM, on one core) while the
-    // per-order grids are made; a failure is left to the fill, which loads it again and says why.
-    std::future<void> fill_program;
-    if (tabulated && options.device == model::Device::OpenCL)
-        fill_program = std::async(std::launch::async, [] {
-            try {
-                model::load_fill_program();
-            } catch (const Error&) {
-            }
-        });
+    // The fill's program loads on the thread that opens the device (PoCL reads it from its cache
+    // through LLVM, on one core) while the per-order grids are made; a failure is left to the fill,
+    // which loads it again and says why.
+    model::SolvedMaterial solved = model::solve_material(
+        spec, options.device, model::settings_for(tolerance),
+        [&progress](const std::string& text) { progress.note(text); },
+        tabulated ? model::DeviceCheck::CallerFillsTable : model::DeviceCheck::Caller);
+    progress.stage("table");
+    auto t = std::chrono::steady_clock::now();
     const model::FillInputs fill = model::prepare_fill(solved);
-    if (fill_program.valid()) fill_program.get();
     const std::string spec_json = spec.resolved.dump();
     std::optional<formats::BrdfTable> table;
     if (tabulated) {
