@@ -105,9 +105,12 @@ constexpr double probe_phis[] = {0.0, 0.5 * std::numbers::pi, std::numbers::pi};
 // the largest are compared on that absolute scale (their relative error is noise). A rough top's
 // first-surface lobe is left out: it is exact, the same in both, and its peak (10^4 1/sr for a
 // gloss finish at grazing) would set a scale that hides every difference of the body.
+// The orders on every core: the probes are compared one after the other, and their first
+// evaluation sets up each order's Nystrom operator (HG g 0.5 at 64 streams: 12 ms on one core).
 double disagreement(const rte::Reflection& a, const rte::Reflection& b) {
-    const std::vector<double> x = a.brdf_grid(probe_mus, probe_phis, false);
-    const std::vector<double> y = b.brdf_grid(probe_mus, probe_phis, false);
+    const int cores = available_cpus();
+    const std::vector<double> x = a.brdf_grid(probe_mus, probe_phis, false, cores);
+    const std::vector<double> y = b.brdf_grid(probe_mus, probe_phis, false, cores);
     double largest = 0.0;
     for (double v : y) largest = std::max(largest, std::abs(v));
     double worst = 0.0;

@@ -669,8 +669,8 @@ double Reflection::brdf(double mu_i, double mu_o, double phi) const {
 }
 
 std::vector<double> Reflection::brdf_grid(std::span<const double> mu, std::span<const double> phi,
-                                          bool with_lobe) const {
-    const OrderGrid grid = order_grid(mu);
+                                          bool with_lobe, int threads) const {
+    const OrderGrid grid = order_grid(mu, threads);
     const std::size_t ne = grid.mu.size(), np = phi.size();
     std::vector<double> out = single_scattering_grid(m_setup, grid.mu, phi);
     for (std::size_t p = 0; p < np; ++p) {

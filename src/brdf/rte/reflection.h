@@ -117,9 +117,10 @@ public:
     /// brdf() at every (mu_i, mu_o, phi) of the cosines `mu` (both directions) and azimuths `phi`,
     /// from one order_grid: value [(i * mu.size() + o) * phi.size() + p]. Evaluating many
     /// directions, this costs about what one brdf() call does. Without `with_lobe`, a rough top's
-    /// first-surface lobe is left out (the body alone: what the streams and orders decide).
+    /// first-surface lobe is left out (the body alone: what the streams and orders decide). The
+    /// orders are evaluated on up to `threads` cores (the same values on any number).
     std::vector<double> brdf_grid(std::span<const double> mu, std::span<const double> phi,
-                                  bool with_lobe = true) const;
+                                  bool with_lobe = true, int threads = 1) const;
     /// Directional-hemispherical reflectance of that BRDF (from the streams' own rule, for which the
     /// discrete equations conserve energy exactly). Under a rough top: of the WHOLE BRDF, lobe
     /// (its closed-form integral) plus body (order 0 on a 32-point Gauss rule in the air cosine);
