@@ -94,7 +94,7 @@ TEST(DeltaM, RefusesATruncationOrderBelowOne) {
 // at 180 degrees (a point of its grid) and at most the largest over a grid 20 times finer.
 TEST(DeltaM, SpreadResidualIsThePhaseFunctionLessDeltaMsOwnOutput) {
     const Medium medium{0.9, test::hg_beta(0.9, 400)};
-    for (const auto [first_dropped, sigma] : {std::pair{32, 0.009}, std::pair{48, 0.009}, std::pair{32, 0.045}}) {
+    for (const auto& [first_dropped, sigma] : {std::pair{32, 0.009}, std::pair{48, 0.009}, std::pair{32, 0.045}}) {
         SCOPED_TRACE(first_dropped);
         const DeltaM d = delta_m(medium, first_dropped);
         const int terms = static_cast<int>(std::ceil(std::sqrt(80.0) / sigma)) + 1;

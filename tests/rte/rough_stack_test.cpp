@@ -188,7 +188,9 @@ TEST(RoughStack, BatchedEvaluationEqualsPointwise) {
         for (std::size_t i = 0; i < 3; ++i) {
             EXPECT_NEAR(albedo[i], r.albedo(mus[i]), 1e-11) << "top " << static_cast<int>(top);
             EXPECT_NEAR(mirror[i], r.mirror(mus[i]), 1e-12) << "top " << static_cast<int>(top);
-            if (top == Top::Smooth) EXPECT_GT(mirror[i], 0.03); // Fresnel of n 1.5, at least the normal 0.04
+            if (top == Top::Smooth) {
+                EXPECT_GT(mirror[i], 0.03); // Fresnel of n 1.5, at least the normal 0.04
+            }
             for (std::size_t o = 0; o < 3; ++o)
                 for (std::size_t p = 0; p < 3; ++p) {
                     const double one = r.brdf(mus[i], mus[o], phis[p]);
