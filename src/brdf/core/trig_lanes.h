@@ -8,8 +8,8 @@
 
 namespace brdf {
 
-/// s[k] = sin(x[k]) and c[k] = cos(x[k]) for x[k] in [0, pi/2] (a few ulp beyond either end stay
-/// within one ulp too); s and c hold x.size() values and overlap neither x nor each other.
+/// s[k] = sin(x[k]) and c[k] = cos(x[k]) for x[k] in [0, pi/2] (an angle rounded an ulp past
+/// either end too); s and c hold x.size() values and overlap neither x nor each other.
 void quarter_turn_sincos(std::span<const double> x, double* s, double* c);
 
 } // namespace brdf

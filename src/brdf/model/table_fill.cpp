@@ -431,8 +431,6 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
     keep_per_sample();
 }
 
-// The fill inputs of the samples `which` with colour weights `weights` (one per entry of `which`)
-// and the single scattering of `singles`.
 // dst[i] += weight * (factor * src[i]) for i < n: a colour grid's row of one order and channel
 // (assemble_fill), in the vector lanes of the clone picked at run time (each entry's own
 // operations, the same bits in every clone).
@@ -443,6 +441,8 @@ void add_weighted_row(double* __restrict dst, const double* __restrict src, int 
     for (int i = 0; i < n; ++i) dst[i] += weight * (factor * src[i]);
 }
 
+// The fill inputs of the samples `which` with colour weights `weights` (one per entry of `which`)
+// and the single scattering of `singles`.
 FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::size_t>& which,
                          const std::vector<Rgb>& weights, const std::vector<SingleScatteringSource>& singles,
                          int zenith_grid = 0) {
