@@ -213,7 +213,10 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         const int pass = p.channels == 1 ? 2 * TF_ORDER_BLOCK : TF_ORDER_BLOCK; // orders per pass
         for (int m0 = 0; m0 < p.orders; m0 += pass) {
             const int pair = p.channels == 1 && m0 + TF_ORDER_BLOCK < p.orders;
-            const int vectors = p.channels == 1 ? 1 + pair : 3; // double8 per lane this pass
+            // double8 per lane this pass: RGB's last block only as many as its orders fill (the seed's
+            // 20 orders: two of three; the gloss's 34: one)
+            const int rgb_vectors = min(3, (3 * (p.orders - m0) + 7) / 8);
+            const int vectors = p.channels == 1 ? 1 + pair : rgb_vectors;
             for (int l = 0; l < TF_LANES; ++l) {
                 if (lane_below[l]) { // its value is replaced: zeros keep the lane's sums defined
                     for (int q = 0; q < vectors; ++q) cells[q][l] = (double8)(0.0);
@@ -251,16 +254,16 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
                         const double w = tap_w[t * TF_LANES + l];
                         __global const double* f = fourier + tap_at[t * TF_LANES + l];
                         v0 += w * vload8(0, f);
-                        v1 += w * vload8(1, f);
-                        v2 += w * vload8(2, f);
+                        if (rgb_vectors > 1) v1 += w * vload8(1, f);
+                        if (rgb_vectors > 2) v2 += w * vload8(2, f);
                     }
                     for (int t = 0; lane_ghost[l] && t < 16; ++t)
                         if (tap_mirrored[t * TF_LANES + l]) {
                             const double w = tap_w[t * TF_LANES + l];
                             __global const double* f = fourier + tap_at[t * TF_LANES + l];
                             g0 += w * vload8(0, f);
-                            g1 += w * vload8(1, f);
-                            g2 += w * vload8(2, f);
+                            if (rgb_vectors > 1) g1 += w * vload8(1, f);
+                            if (rgb_vectors > 2) g2 += w * vload8(2, f);
                         }
                     cells[0][l] = select(v0, v0 - 2.0 * g0, (long8)(0, 0, 0, -1, -1, -1, 0, 0));
                     cells[1][l] = select(v1, v1 - 2.0 * g1, (long8)(0, -1, -1, -1, 0, 0, 0, -1));
