@@ -9,7 +9,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <string>
 #include <vector>
@@ -168,6 +170,69 @@ TEST(ClContext, SelfTestInChildProcess) {
     EXPECT_EQ(result.status, 0) << result.err;
     EXPECT_EQ(result.out.rfind("OpenCL self-test OK: ", 0), 0u) << result.out;
     EXPECT_EQ(result.out.find('\n'), result.out.size() - 1) << "one line expected: " << result.out;
+}
+
+// PoCL's start leaves an empty tempfile_* in its cache folder: only those are removed, and only
+// once they are old enough not to be another process's file about to be written.
+TEST(ClPoclCache, RemovesOnlyOldEmptyTempfiles) {
+    const brdf::test::TempDir dir;
+    const auto now = fs::file_time_type::clock::now();
+    const auto make = [&](const std::string& name, const std::string& content, auto age) {
+        const fs::path p = dir.path() / name;
+        std::ofstream(p) << content;
+        fs::last_write_time(p, now - age);
+        return p;
+    };
+    using std::chrono::hours;
+    using std::chrono::minutes;
+    const fs::path old_empty = make("tempfile_AbC123", "", hours(2));
+    const fs::path young_empty = make("tempfile_XyZ789", "", minutes(5));
+    const fs::path old_written = make("tempfile_Q1w2E3", "kernel", hours(2));
+    const fs::path other_name = make("program.bc", "", hours(2));
+    fs::create_directory(dir.path() / "tempfile_dir0");
+    const fs::path target = make("target", "", hours(2));
+    fs::create_symlink(target, dir.path() / "tempfile_link1");
+    fs::last_write_time(target, now - hours(2));
+
+    EXPECT_EQ(brdf::cl::remove_pocl_leftovers(dir.path(), hours(1)), 1u);
+    EXPECT_FALSE(fs::exists(old_empty));
+    for (const fs::path& kept : {young_empty, old_written, other_name, target, dir.path() / "tempfile_dir0"})
+        EXPECT_TRUE(fs::exists(kept)) << kept;
+    EXPECT_TRUE(fs::is_symlink(dir.path() / "tempfile_link1"));
+    EXPECT_EQ(brdf::cl::remove_pocl_leftovers(dir.path() / "missing", hours(1)), 0u);
+}
+
+// A process that starts PoCL in the cache folder it chose sweeps what earlier starts left there;
+// the file its own start leaves stays, being young (at most one per process remains).
+TEST(ClPoclCache, StartingPoclSweepsTheFolderItChose) {
+    if (!brdf::cl::available()) GTEST_SKIP() << "no OpenCL device with fp64";
+    const brdf::test::TempDir home;
+    const fs::path folder = home.path() / "brdf" / "pocl";
+    fs::create_directories(folder);
+    const fs::path leftover = folder / "tempfile_Old001";
+    std::ofstream(leftover).close();
+    fs::last_write_time(leftover, fs::file_time_type::clock::now() - std::chrono::hours(3));
+    const auto count = [&] {
+        std::size_t n = 0;
+        for (const fs::directory_entry& e : fs::directory_iterator(folder))
+            n += e.path().filename().string().starts_with("tempfile_");
+        return n;
+    };
+    const auto result =
+        run_probe({"-u", "POCL_CACHE_DIR", "XDG_CACHE_HOME=" + home.path().string()}, {"available"});
+    EXPECT_EQ(result.status, 0) << result.err;
+    EXPECT_EQ(result.out, "1\n");
+    EXPECT_FALSE(fs::exists(leftover));
+    EXPECT_LE(count(), 1u);
+
+    // A folder named by POCL_CACHE_DIR is the user's: left alone.
+    const fs::path theirs = home.path() / "theirs";
+    fs::create_directories(theirs);
+    std::ofstream(theirs / "tempfile_Old002").close();
+    fs::last_write_time(theirs / "tempfile_Old002", fs::file_time_type::clock::now() - std::chrono::hours(3));
+    const auto set = run_probe({"POCL_CACHE_DIR=" + theirs.string()}, {"available"});
+    EXPECT_EQ(set.status, 0) << set.err;
+    EXPECT_TRUE(fs::exists(theirs / "tempfile_Old002"));
 }
 
 // Every kernels/*.cl and kernels/shared/*.h is embedded, byte for byte, and nothing else: a kernel

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cerrno>
 #include <cstdint>
 #include <cstdlib>
@@ -48,6 +49,8 @@ bool has_extension(const std::string& extensions, std::string_view wanted) {
     return false;
 }
 
+void sweep_pocl_leftovers();
+
 struct Enumerated {
     std::size_t platforms = 0;
     std::vector<::cl::Device> devices;
@@ -59,6 +62,7 @@ Enumerated enumerate_devices() {
     Enumerated result;
     std::vector<::cl::Platform> platforms;
     const cl_int err = ::cl::Platform::get(&platforms);
+    sweep_pocl_leftovers();
     if (err == platform_not_found_khr || (err == CL_SUCCESS && platforms.empty())) return result;
     check(err, "list OpenCL platforms (clGetPlatformIDs)");
     result.platforms = platforms.size();
@@ -235,6 +239,47 @@ std::string cache_folder_problem(const fs::path& folder) {
     return {};
 }
 
+namespace {
+
+/// The folder prepare_environment gave PoCL, when it chose one (not when POCL_CACHE_DIR was set).
+fs::path& folder_chosen_here() {
+    static fs::path folder;
+    return folder;
+}
+
+// PoCL 3.1's start creates an empty file tempfile_XXXXXX in its cache folder and leaves it there
+// (strace: O_CREAT | O_EXCL before it loads its devices, no unlink): one per process, 1,342 of them
+// in a folder of ours after a day of tests. Once PoCL has started, the empty ones older than an
+// hour are removed from the folder we chose (one POCL_CACHE_DIR names is left alone). A younger
+// one may be another process's file on its way to being written and renamed.
+void sweep_pocl_leftovers() {
+    static std::once_flag once;
+    std::call_once(once, [] {
+        if (!folder_chosen_here().empty()) remove_pocl_leftovers(folder_chosen_here(), std::chrono::hours(1));
+    });
+}
+
+} // namespace
+
+std::size_t remove_pocl_leftovers(const fs::path& folder, std::chrono::seconds min_age) {
+    std::error_code ec;
+    fs::directory_iterator it(folder, ec);
+    if (ec) return 0;
+    const auto now = fs::file_time_type::clock::now();
+    std::size_t removed = 0;
+    for (const fs::directory_entry& entry : it) {
+        if (!entry.path().filename().string().starts_with("tempfile_")) continue;
+        // symlink_status: a link is not a regular file, so none is followed.
+        if (!fs::is_regular_file(entry.symlink_status(ec)) || ec) continue;
+        if (entry.file_size(ec) != 0 || ec) continue;
+        const auto modified = entry.last_write_time(ec);
+        if (ec || now - modified < min_age) continue;
+        if (fs::remove(entry.path(), ec) && !ec) ++removed;
+    }
+    if (removed > 0) log::debug("PoCL cache: removed ", removed, " empty tempfile_* left by PoCL's start");
+    return removed;
+}
+
 fs::path prepare_environment(const fs::path& fallback) {
     static std::once_flag once;
     static fs::path chosen;
@@ -259,6 +304,7 @@ fs::path prepare_environment(const fs::path& fallback) {
             }
             ::setenv("POCL_CACHE_DIR", dir.c_str(), 0);
             chosen = dir;
+            folder_chosen_here() = dir;
             log::debug("PoCL cache: POCL_CACHE_DIR=", dir.string());
             return;
         }

@@ -12,6 +12,7 @@
 
 #include <brdf/cl/opencl.h>
 
+#include <chrono>
 #include <cstddef>
 #include <filesystem>
 #include <map>
@@ -50,6 +51,12 @@ std::string unavailable_reason();
 /// thread-safe); the first OpenCL call makes it otherwise. Returns POCL_CACHE_DIR (empty when no
 /// folder could be used).
 std::filesystem::path prepare_environment(const std::filesystem::path& fallback = {});
+
+/// Removes the empty files tempfile_* at least `min_age` old that PoCL's start leaves in `folder`
+/// (PoCL 3.1: one per process). Once per process, after PoCL started, the folder
+/// prepare_environment chose is swept with a min_age of an hour. Returns how many were removed.
+/// Exposed for tests.
+std::size_t remove_pocl_leftovers(const std::filesystem::path& folder, std::chrono::seconds min_age);
 
 /// Why `folder` cannot serve as a cache folder ("cannot create it: Permission denied"), or empty
 /// when it can be created and a file written in it. Exposed for tests.
