@@ -8,11 +8,17 @@
 #include <brdf/model/cl_table_fill.h>
 #include <brdf/model/model.h>
 #include <brdf/model/table_fill.h>
+#include <formats/exr/exr.h>
+#include <formats/merl/merl.h>
 
 #include <benchmark/benchmark.h>
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
+#include <string>
 #include <thread>
+
+#include <unistd.h>
 
 namespace {
 
@@ -166,6 +172,24 @@ void BM_PrepareFillSeed(benchmark::State& state) {
     for (auto _ : state) benchmark::DoNotOptimize(model::prepare_fill(m));
 }
 BENCHMARK(BM_PrepareFillSeed)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+// Writing the seed's table as compute does (a temporary file, written, fsynced and renamed):
+// MERL (0) or OpenEXR (1). The file is removed between runs, outside the timing.
+void BM_WriteSeedTable(benchmark::State& state) {
+    const model::FillInputs in = model::prepare_fill(model::solve_material(seed(), model::Device::Cpu));
+    const int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    const formats::BrdfTable table = model::fill_table_cpu(in, threads);
+    const bool exr = state.range(0) != 0;
+    const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                       ("brdf-bench-" + std::to_string(::getpid()) + (exr ? ".exr" : ".binary"));
+    for (auto _ : state) {
+        exr ? formats::write_exr(path, table) : formats::write_merl(path, table);
+        state.PauseTiming();
+        std::filesystem::remove(path);
+        state.ResumeTiming();
+    }
+}
+BENCHMARK(BM_WriteSeedTable)->Arg(0)->Arg(1)->ArgName("exr")->Unit(benchmark::kMillisecond)->Iterations(5)->Repetitions(3);
 
 } // namespace
 

@@ -82,17 +82,19 @@ struct CellCheck {
     }
 };
 
+CellCheck cell_check(const BrdfTable& table) {
+    return {below_horizon_mask().data(), table.channels[0].data(), table.channels[1].data(),
+            table.channels[2].data()};
+}
+
 // The first cell that breaks the invariants, or `cells`: blocks of cells counted (a vectorised
 // loop), then the first block with a bad cell cell by cell.
 std::size_t first_bad_cell(const BrdfTable& table) {
-    const CellCheck ok{below_horizon_mask().data(), table.channels[0].data(), table.channels[1].data(),
-                       table.channels[2].data()};
+    const CellCheck ok = cell_check(table);
     constexpr std::size_t block = 4096;
     for (std::size_t start = 0; start < cells; start += block) {
         const std::size_t end = std::min(cells, start + block);
-        std::size_t bad = 0;
-        for (std::size_t cell = start; cell < end; ++cell) bad += !ok(cell);
-        if (bad == 0) continue;
+        if (cells_pass_check(table, start, end)) continue;
         for (std::size_t cell = start; cell < end; ++cell)
             if (!ok(cell)) return cell;
     }
@@ -101,11 +103,22 @@ std::size_t first_bad_cell(const BrdfTable& table) {
 
 } // namespace
 
-void check_table(const BrdfTable& table, std::string_view what) {
+void check_channel_sizes(const BrdfTable& table, std::string_view what) {
     for (int c = 0; c < 3; ++c)
         if (table.channels[c].size() != cells)
             throw NumericalError(cat(what, ": the ", channel_name(c), " channel holds ",
                                      table.channels[c].size(), " values (", cells, " expected)"));
+}
+
+bool cells_pass_check(const BrdfTable& table, std::size_t first, std::size_t end) {
+    const CellCheck ok = cell_check(table);
+    std::size_t bad = 0;
+    for (std::size_t cell = first; cell < end; ++cell) bad += !ok(cell);
+    return bad == 0;
+}
+
+void check_table(const BrdfTable& table, std::string_view what) {
+    check_channel_sizes(table, what);
     const std::size_t cell = first_bad_cell(table);
     if (cell == cells) return;
     // Not all three no data, so some channel is negative or not finite: the first is named.

@@ -102,6 +102,12 @@ BrdfTable tabulate(const std::function<Rgb(const CellCentre&)>& brdf);
 /// (channel, theta_h/theta_d/phi_d indices) and the value.
 void check_table(const BrdfTable& table, std::string_view what);
 
+/// check_table in parts, for a writer that checks each block of cells as it converts it: the
+/// channels' sizes (throws as check_table does), then whether cells [first, end) keep the
+/// invariants (a vectorised count); where a block does not, check_table names the first bad cell.
+void check_channel_sizes(const BrdfTable& table, std::string_view what);
+bool cells_pass_check(const BrdfTable& table, std::size_t first, std::size_t end);
+
 /// "cell theta_h 3, theta_d 4, phi_d 5" for error messages.
 std::string describe_cell(std::size_t cell);
 

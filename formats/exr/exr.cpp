@@ -8,6 +8,7 @@
 
 #include <formats/exr/zip_writer.h>
 
+#include <atomic>
 #include <cmath>
 #include <optional>
 #include <string_view>
@@ -123,15 +124,7 @@ BrdfTable read_exr(const std::filesystem::path& path) {
 }
 
 void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
-    check_table(table, display(path));
-    std::size_t no_data_above_horizon = 0;
-    const std::uint8_t* below = below_horizon_mask().data();
-    for (std::size_t cell = 0; cell < cells; ++cell)
-        no_data_above_horizon += below[cell] == 0 && table.channels[0][cell] == BrdfTable::no_data;
-    if (no_data_above_horizon > 0)
-        log::warn(display(path), ": ", no_data_above_horizon,
-                  " cells above the horizon hold no data; OpenEXR tables store them as 0");
-
+    check_channel_sizes(table, display(path));
     const std::string colorspace =
         table.colorspace == legacy_rec709_colorspace ? default_colorspace : table.colorspace;
     const std::optional<Chromaticities> chromaticities = colorspace_chromaticities(colorspace);
@@ -141,13 +134,27 @@ void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
     std::vector<detail::PlaneSource> sources;
     // Rounded to float32 as the blocks are made; no data (-1) and cells below the horizon are 0.
     for (int c = 0; c < 3; ++c) sources.push_back({channel_names[c], nullptr, table.channels[c].data()});
+    // Each block's cells are checked as it is compressed (in cache then, where a pass of its own
+    // read the 35 MB table once more): check_table names the first bad cell of a table that fails.
+    std::atomic<std::size_t> no_data_above_horizon{0};
+    const std::uint8_t* below = below_horizon_mask().data();
+    const auto check = [&](std::size_t first, std::size_t end) {
+        if (!cells_pass_check(table, first, end)) check_table(table, display(path));
+        std::size_t none = 0;
+        for (std::size_t cell = first; cell < end; ++cell)
+            none += (below[cell] == 0) & (table.channels[0][cell] == BrdfTable::no_data);
+        no_data_above_horizon += none;
+    };
     detail::write_zip_table(path, sources,
                             {{"brdf.layout", exr_layout},
                              {"brdf.units", exr_units},
                              {"brdf.colorspace", colorspace},
                              {"brdf.spec", table.spec},
                              {"brdf.generator", table.generator}},
-                            chromaticities);
+                            chromaticities, check);
+    if (no_data_above_horizon > 0)
+        log::warn(display(path), ": ", no_data_above_horizon.load(),
+                  " cells above the horizon hold no data; OpenEXR tables store them as 0");
 }
 
 } // namespace brdf::formats

@@ -146,7 +146,7 @@ class CoreWriter {
 
 void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneSource>& planes,
                      const std::vector<std::pair<std::string, std::string>>& attributes,
-                     const std::optional<Chromaticities>& chromaticities) {
+                     const std::optional<Chromaticities>& chromaticities, const BlockCheck& check) {
     AtomicFile out(path);
     {
         CoreWriter writer(out, path);
@@ -199,8 +199,10 @@ void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneS
         // Block b compressed, then handed on for writing.
         const auto compress_and_write = [&](int b, int t) {
             const int y0 = b * zip_lines;
-            std::vector<unsigned char> block = zip_block(ordered, y0, std::min(zip_lines, exr_height - y0),
-                                                         compressors[t].get(), scratch[t]);
+            const int lines = std::min(zip_lines, exr_height - y0);
+            if (check)
+                check(static_cast<std::size_t>(y0) * exr_width, static_cast<std::size_t>(y0 + lines) * exr_width);
+            std::vector<unsigned char> block = zip_block(ordered, y0, lines, compressors[t].get(), scratch[t]);
             // The thread that finds the next block ready writes the run that is ready, outside the
             // lock, while the others go on compressing.
             std::unique_lock lock(write_mutex);

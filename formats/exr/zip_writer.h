@@ -13,7 +13,9 @@
 
 #include <formats/exr/exr.h>
 
+#include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -30,11 +32,16 @@ struct PlaneSource {
     const double* doubles = nullptr; ///< when data is null
 };
 
+/// Called on the cells [first, end) of each block (pixel (x, y) is cell y * exr_width + x) just
+/// before the block is compressed, on the thread that compresses it: a writer's check of its
+/// source, which throws to stop the write (no file is left).
+using BlockCheck = std::function<void(std::size_t first, std::size_t end)>;
+
 /// Writes the planes as one ZIP scanline part of exr_width x exr_height FLOAT channels, with the
 /// string attributes and, when given, the chromaticities, atomically (AtomicFile). IoError naming
-/// the path when it cannot be written.
+/// the path when it cannot be written; what `check` throws.
 void write_zip_table(const std::filesystem::path& path, const std::vector<PlaneSource>& planes,
                      const std::vector<std::pair<std::string, std::string>>& attributes,
-                     const std::optional<Chromaticities>& chromaticities);
+                     const std::optional<Chromaticities>& chromaticities, const BlockCheck& check = {});
 
 } // namespace brdf::formats::detail

@@ -6,6 +6,7 @@
 #include <brdf/core/log.h>
 #include <brdf/core/threads.h>
 
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -46,6 +47,34 @@ void to_or_from_little_endian(std::span<double> values) {
     if constexpr (std::endian::native == std::endian::big) {
         for (double& d : values)
             d = std::bit_cast<double>(byte_swap(std::bit_cast<std::uint64_t>(d)));
+    }
+}
+
+// `keep ? value : otherwise` by the bits, so that a loop of them vectorises: GCC leaves a
+// select of two doubles whose condition comes from comparisons as a branch.
+double pick(bool keep, double value, double otherwise) {
+    const std::uint64_t mask = -static_cast<std::uint64_t>(keep);
+    return std::bit_cast<double>((std::bit_cast<std::uint64_t>(value) & mask) |
+                                 (std::bit_cast<std::uint64_t>(otherwise) & ~mask));
+}
+
+// Cells [first, first + count) of the three planes in the file's units, into out (plane c at
+// out + c * stride): each value over its channel's scale, and -1 where the cell holds no data
+// (below the horizon, or -1 in the table).
+void to_merl_units(const BrdfTable& table, const std::uint8_t* below, std::size_t first, std::size_t count,
+                   double* out, std::size_t stride) {
+    const double* __restrict r = table.channels[0].data() + first;
+    const double* __restrict g = table.channels[1].data() + first;
+    const double* __restrict b = table.channels[2].data() + first;
+    const std::uint8_t* __restrict under = below + first;
+    double* __restrict out_r = out;
+    double* __restrict out_g = out + stride;
+    double* __restrict out_b = out + 2 * stride;
+    for (std::size_t k = 0; k < count; ++k) {
+        const bool data = (under[k] == 0) & (r[k] >= 0.0) & (g[k] >= 0.0) & (b[k] >= 0.0);
+        out_r[k] = pick(data, r[k] / merl_scales[0], -1.0);
+        out_g[k] = pick(data, g[k] / merl_scales[1], -1.0);
+        out_b[k] = pick(data, b[k] / merl_scales[2], -1.0);
     }
 }
 
@@ -118,38 +147,41 @@ BrdfTable read_merl(const std::filesystem::path& path) {
 }
 
 void write_merl(const std::filesystem::path& path, const BrdfTable& table) {
-    check_table(table, display(path));
+    check_channel_sizes(table, display(path));
     detail::AtomicFile out(path);
     unsigned char header[header_size];
     for (std::size_t d = 0; d < 3; ++d) store_i32_le(header + 4 * d, merl_dims[d]);
     out.write_at(0, header, header_size);
-    // Converted and written a block at a time on every core: copying 35 MB into the page cache is
-    // most of the write, one thread left the other cores idle (a MERL table alone is a material's
-    // output), and a block-sized buffer per thread stays in its cache where whole planes were 35 MB
-    // of fresh pages.
-    constexpr std::size_t block = std::size_t{1} << 16; // cells
-    constexpr std::size_t blocks_per_plane = (cells + block - 1) / block;
-    const int threads = std::min(available_cpus(), static_cast<int>(3 * blocks_per_plane));
+    // Checked, converted and written a block of cells at a time on every core: copying 35 MB into
+    // the page cache is most of the write, and one thread left the other cores idle (a MERL table
+    // alone is a material's output). A block's three planes (0.75 MB) are read from memory once,
+    // by the check, and stay in cache for the conversion, with the buffers. A table that fails the
+    // check is not written: check_table names its first bad cell, and the temporary is removed.
+    constexpr std::size_t block = std::size_t{1} << 15; // cells
+    constexpr std::size_t blocks = (cells + block - 1) / block;
+    const int threads = std::min(available_cpus(), static_cast<int>(blocks));
+    std::atomic<bool> bad{false};
     parallel_for(threads, threads, [&](int t) {
-        std::vector<double> buffer(block);
+        std::vector<double> buffer(3 * block);
         const std::uint8_t* below = below_horizon_mask().data();
-        const auto step = static_cast<std::size_t>(threads);
-        for (std::size_t b = static_cast<std::size_t>(t); b < 3 * blocks_per_plane; b += step) {
-            const int c = static_cast<int>(b / blocks_per_plane);
-            const std::size_t first = (b % blocks_per_plane) * block;
+        for (std::size_t b = static_cast<std::size_t>(t); b < blocks && !bad.load(std::memory_order_relaxed);
+             b += static_cast<std::size_t>(threads)) {
+            const std::size_t first = b * block;
             const std::size_t count = std::min(block, cells - first);
-            const TablePlane& values = table.channels[c];
-            for (std::size_t k = 0; k < count; ++k) {
-                const std::size_t cell = first + k;
-                buffer[k] = below[cell] != 0 || !table.has_data(cell)
-                                ? -1.0
-                                : values[cell] / merl_scales[c];
+            if (!cells_pass_check(table, first, first + count)) {
+                bad = true;
+                break;
             }
-            to_or_from_little_endian(std::span<double>(buffer.data(), count));
-            out.write_at(header_size + c * plane_bytes + first * sizeof(double), buffer.data(),
-                         count * sizeof(double));
+            to_merl_units(table, below, first, count, buffer.data(), block);
+            for (int c = 0; c < 3; ++c) {
+                const std::span<double> plane(buffer.data() + c * block, count);
+                to_or_from_little_endian(plane);
+                out.write_at(header_size + c * plane_bytes + first * sizeof(double), plane.data(),
+                             count * sizeof(double));
+            }
         }
     });
+    if (bad) check_table(table, display(path)); // throws
     out.commit();
 }
 

@@ -514,6 +514,20 @@ TEST(ExrWrite, BadTableIsRefusedAndNothingIsLeftBehind) {
     EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1);
 }
 
+// Checked block by block as they are compressed: of two bad cells far apart, the first is named.
+TEST(ExrWrite, OfTwoBadCellsTheFirstIsNamed) {
+    TempDir dir;
+    BrdfTable t = test::analytic_table();
+    t.channels[0][cell_index(85, 3, 170)] = INFINITY;
+    t.channels[1][cell_index(9, 60, 2)] = -2.0;
+    EXPECT_THROW_MESSAGE(write_exr(dir / "a.exr", t), NumericalError,
+                         (dir / "a.exr").string() +
+                             ": green value -2 at cell theta_h 9, theta_d 60, phi_d 2 "
+                             "(a BRDF must be finite and >= 0, or -1 in all three "
+                             "channels for no data)");
+    EXPECT_TRUE(fs::is_empty(dir.path()));
+}
+
 // An I/O error inside OpenEXR's writer comes out as our IoError, and nothing is left behind.
 TEST(ExrWrite, FailedWriteKeepsTheOldFileAndRemovesTheTemporary) {
     TempDir dir;

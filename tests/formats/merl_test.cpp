@@ -343,6 +343,21 @@ TEST(MerlWrite, BadTableIsRefusedBeforeTouchingTheFile) {
     EXPECT_EQ(files_in(dir.path()), std::vector<std::string>{"a.binary"});
 }
 
+// The cells are checked block by block as they are converted, on every core: of two bad cells in
+// blocks far apart, the first in cell order is named, whichever thread meets a bad block first.
+TEST(MerlWrite, OfTwoBadCellsTheFirstIsNamed) {
+    TempDir dir;
+    const fs::path p = dir / "a.binary";
+    BrdfTable t = test::analytic_table();
+    t.channels[1][cell_index(80, 40, 10)] = -0.5;
+    t.channels[2][cell_index(5, 6, 7)] = std::nan("");
+    EXPECT_THROW_MESSAGE(write_merl(p, t), NumericalError,
+                         p.string() +
+                             ": blue value NaN at cell theta_h 5, theta_d 6, phi_d 7 (a BRDF "
+                             "must be finite and >= 0, or -1 in all three channels for no data)");
+    EXPECT_TRUE(fs::is_empty(dir.path()));
+}
+
 TEST(MerlWrite, FailedWriteKeepsTheOldFileAndRemovesTheTemporary) {
     TempDir dir;
     const fs::path p = dir / "a.binary";
