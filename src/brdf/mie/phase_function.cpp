@@ -38,7 +38,8 @@ template <typename V>
                                              ParitySums<V>& s) {
     const double dn = c[4], dn1 = c[5], up = c[6], down = c[7];
     const V p = pi, pm = pi_prev;
-    const V tau = dn * m * p - dn1 * pm;
+    const V mp = m * p; // shared by tau_n and pi_{n+1}: one product of fourteen per order fewer
+    const V tau = dn * mp - dn1 * pm;
     s.api_r += c[0] * p;
     s.api_i += c[1] * p;
     s.btau_r += c[2] * tau;
@@ -48,7 +49,7 @@ template <typename V>
     s.bpi_r += c[2] * p;
     s.bpi_i += c[3] * p;
     pi_prev = p;
-    pi = up * m * p - down * pm;
+    pi = up * mp - down * pm;
 }
 
 /// I(+mu_j), I(-mu_j) for a block of nodes (see above).
