@@ -27,6 +27,7 @@ here). One row times the seed replacing its own tables (`--force` into the same 
 Needs numpy; pydisort for the DISORT row (skipped, and said so, without it).
 """
 import argparse
+import atexit
 import datetime
 import json
 import math
@@ -164,6 +165,7 @@ def main():
     a = ap.parse_args()
     tool = a.brdftool
     work = tempfile.mkdtemp(prefix="brdf-bench-")
+    atexit.register(shutil.rmtree, work, True)  # its 45 MB of tables and caches, also after a failure
     out = os.path.join(work, "out")
     # The run's own cache folder: the user's is left alone, and every row starts from a known state
     # (OpenCL programs built once by the warm-up below; Mie ensembles as each row says).
