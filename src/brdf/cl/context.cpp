@@ -224,23 +224,6 @@ std::string empty_platform_cause() {
     return {};
 }
 
-} // namespace
-
-std::string cache_folder_problem(const fs::path& folder) {
-    std::error_code ec;
-    fs::create_directories(folder, ec);
-    if (ec) return cat("cannot create it: ", ec.message());
-    if (!fs::is_directory(folder, ec)) return "not a folder";
-    const fs::path probe = folder / cat(".brdf-write-probe.", ::getpid());
-    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd < 0) return cat("cannot write in it: ", std::strerror(errno));
-    ::close(fd);
-    ::unlink(probe.c_str());
-    return {};
-}
-
-namespace {
-
 /// The folder prepare_environment gave PoCL, when it chose one (not when POCL_CACHE_DIR was set).
 fs::path& folder_chosen_here() {
     static fs::path folder;
@@ -260,6 +243,19 @@ void sweep_pocl_leftovers() {
 }
 
 } // namespace
+
+std::string cache_folder_problem(const fs::path& folder) {
+    std::error_code ec;
+    fs::create_directories(folder, ec);
+    if (ec) return cat("cannot create it: ", ec.message());
+    if (!fs::is_directory(folder, ec)) return "not a folder";
+    const fs::path probe = folder / cat(".brdf-write-probe.", ::getpid());
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) return cat("cannot write in it: ", std::strerror(errno));
+    ::close(fd);
+    ::unlink(probe.c_str());
+    return {};
+}
 
 std::size_t remove_pocl_leftovers(const fs::path& folder, std::chrono::seconds min_age) {
     std::error_code ec;
