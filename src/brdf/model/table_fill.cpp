@@ -366,9 +366,10 @@ double probe_error(const std::vector<Probe>& probes, const std::vector<SingleSca
 // transmission at n). Lagrange interpolation in n on nodes n_j of the material's index range, each
 // a sample's own index, gives sum_s w_s f_s(n_s) ~= sum_j t t / (u_o + u_i) at n_j times
 // Q_j(Theta(n_j)), Q_j = sum_s w_s L_j(n_s) P_s: J terms per cell instead of S (PMMA across the
-// visible: 5 instead of 41). Nodes near the Chebyshev-Lobatto points, J = 3, 5, 7, ... until a
-// probe set agrees; a material whose indices all agree gets one exact term; anything else (thin
-// films, several layers) keeps one term per sample. An opaque film's top layer counts as a
+// visible: 4 instead of 41). Nodes near the Chebyshev-Lobatto points, J = 3, 4, 5, ... until a
+// probe set agrees (the odd counts alone gave PMMA 5; a term is ~7 % of the seed's fill); a
+// material whose indices all agree gets one exact term; anything else (thin films, several
+// layers) keeps one term per sample. An opaque film's top layer counts as a
 // half-space (assemble_fill: its slab factor is 1 to within 1 % of the tolerance).
 void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, double tolerance, FillInputs& in) {
     const std::size_t count = terms.size();
@@ -391,7 +392,7 @@ void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, dou
     }
     const std::vector<Probe> probes = probe_set(terms);
     std::size_t tried = 0; // the node count of the last set tried
-    for (int nodes = 3; 2 * static_cast<std::size_t>(nodes) <= count; nodes += 2) {
+    for (int nodes = 3; 2 * static_cast<std::size_t>(nodes) <= count; ++nodes) {
         // The sample nearest each Chebyshev-Lobatto point; a point whose nearest sample is already
         // a node adds none. Dispersion crowds the samples' indices at the red end, where several
         // points can share a sample once there are more than a few (silica's 41 visible samples
