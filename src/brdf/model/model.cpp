@@ -229,57 +229,32 @@ int choose_streams(const std::vector<SpectralOptics>& optics, const std::vector<
     // in N. For an error falling as N^-p, d(3n/4, n) = ((4/3)^p - 1) err(n) and d(n, 1.5 n) =
     // (1 - 1.5^-p) err(n): equal for p = 1, and the check from below the more cautious for every
     // faster convergence. Otherwise the check goes up from n as before. Solved first, the smaller
-    // batches also take the device's one-off work (PoCL compiles a kernel on its first launch) out
+    // batch also takes the device's one-off work (PoCL compiles a kernel on its first launch) out
     // of probe_seconds. A count pinned at the cap (streams = max_streams) is not checked.
     //
-    // The table is the worst case (isotropic, albedo 1): a material that converges faster may need
-    // only 3n/4. So 3/4 of that (9n/16: its solve costs 0.18 of one at n) is solved first, and
-    // where it agrees with 3n/4 within the tolerance, 3n/4 is kept by the same test that would have
-    // kept n (HG g 0.5, albedo 0.99 at 1e-6: 36 and 48 differ by 8.9e-8, and 48 is within 1.5e-9 of
-    // 144 streams). Otherwise its solve is not lost: the check from below assumes the slowest
-    // convergence, and where 3n/4 and n disagree by more than the tolerance, the three counts
-    // measure this material's own rate p (the quadrature study measured N^-4.5 and faster:
-    // docs/quadrature-study.md, 1.4e-4, 3.9e-5, 2.8e-6 at 24, 32, 48): where it is the study's
-    // (p >= 4), the error at n extrapolates to d(3n/4, n) / ((4/3)^p - 1) (Richardson, p taken at
-    // most 6), and n is kept where that is at most half the tolerance. A rough top or a peaked phase
-    // function, which converge more slowly (p 2.6 to 3.8 for the catalogue's finishes and the silica
-    // matting agent), go on up as before. Below the table's smallest count (8) nothing is kept: 9n/16
-    // is solved after n, and only where the rate is needed.
+    // The check from below assumes the slowest convergence; the quadrature study measured the error
+    // falling as N^-4.5 and faster (docs/quadrature-study.md: 1.4e-4, 3.9e-5, 2.8e-6 at 24, 32, 48).
+    // Where the two counts disagree by more than the tolerance, a third, smaller count (3/4 of the
+    // lower: its solve costs 0.18 of one at n, the solve above 3.4 times as much) measures this
+    // material's own rate p: where it is the study's (p >= 4), the error at n extrapolates to
+    // d(3n/4, n) / ((4/3)^p - 1) (Richardson, p taken at most 6), and n is kept where that is at most
+    // half the tolerance. A rough top or a peaked phase function, which converge more slowly (p 2.6 to
+    // 3.8 for the catalogue's finishes and the silica matting agent), go on up as before.
     // A skipped count's three quarters fail too: the check goes up from n.
     if (const int below = 3 * n / 4; !skipped && below >= 2 && n < st.max_streams) {
-        const int lower = 3 * below / 4 / 2 * 2;
-        constexpr int smallest_kept = 8;
-        std::vector<rte::Reflection> at_below;
-        std::optional<double> d_lower; // d(9n/16, 3n/4)
-        if (lower >= smallest_kept) {
-            const std::vector<rte::Reflection> at_lower = solve_probes(probes, lower).first;
-            std::tie(at_below, probe_seconds) = solve_probes(probes, below);
-            checked = {lower, below};
-            d_lower = largest_disagreement(at_lower, at_below);
-            if (*d_lower <= st.tolerance) {
-                n = below;
-                estimate = *d_lower;
-                at_n = std::move(at_below);
-                return chosen();
-            }
-        } else {
-            at_below = solve_probes(probes, below).first;
-            checked = {below};
-        }
+        const std::vector<rte::Reflection> at_below = solve_probes(probes, below).first;
         std::tie(at_n, probe_seconds) = solve_probes(probes, n);
-        checked.push_back(n);
+        checked = {below, n};
         estimate = largest_disagreement(at_below, at_n);
         if (estimate <= st.tolerance) return chosen();
-        if (!d_lower && lower >= 2) {
-            d_lower = largest_disagreement(solve_probes(probes, lower).first, at_below);
+        if (const int lower = 3 * below / 4 / 2 * 2; lower >= 2) {
+            const double d_lower = largest_disagreement(solve_probes(probes, lower).first, at_below);
             checked.push_back(lower);
-        }
-        if (d_lower) {
-            const double rate = std::log(*d_lower / estimate) / std::log(static_cast<double>(below) / lower);
+            const double rate = std::log(d_lower / estimate) / std::log(static_cast<double>(below) / lower);
             if (rate >= 4.0) {
                 const double step = std::pow(static_cast<double>(n) / below, std::min(rate, 6.0));
                 const double extrapolated = estimate / (step - 1.0);
-                log::debug("streams ", lower, ", ", below, " and ", n, " differ by ", *d_lower, " and ", estimate,
+                log::debug("streams ", lower, ", ", below, " and ", n, " differ by ", d_lower, " and ", estimate,
                            ": error falling as N^-", rate, ", ", extrapolated, " at ", n);
                 if (extrapolated <= 0.5 * st.tolerance) {
                     estimate = extrapolated;
