@@ -1,8 +1,10 @@
 // settings_for (src/brdf/model/model.cpp) and the stream choice of solve_material: for a
 // forward-peaked medium the streams chosen for a tolerance must meet that tolerance against a much
-// finer solve (2 N + 16 streams, solver and order tolerances far below the requested one),
-// over the directions the tables cover; and settings_for itself must be consistent (tighter
-// tolerance: no fewer streams, a cap no lower, finer solver and order tolerances).
+// finer solve (2 N + 16 streams, solver and order tolerances far below the requested one), with
+// both directions up to 85 degrees (and HG g 0.5 at "reference" up to 89.9; the check's probes stop
+// at 89.5, docs/physics.md "What the stream check sees"); and settings_for itself must be
+// consistent (tighter tolerance: no fewer streams, a cap no lower, finer solver and order
+// tolerances).
 
 #include <brdf/material/spec.h>
 #include <brdf/model/model.h>
