@@ -369,8 +369,8 @@ double probe_error(const std::vector<Probe>& probes, const std::vector<SingleSca
 // visible: 4 instead of 41). Nodes near the Chebyshev-Lobatto points, J = 3, 4, 5, ... until a
 // probe set agrees (the odd counts alone gave PMMA 5; a term is ~7 % of the seed's fill); a
 // material whose indices all agree gets one exact term; anything else (thin films, several
-// layers) keeps one term per sample. An opaque film's top layer counts as a
-// half-space (assemble_fill: its slab factor is 1 to within 1 % of the tolerance).
+// layers) keeps one term per sample. An opaque film's top layer counts as a half-space
+// (assemble_fill: its slab factor is 1 to within 1 % of the tolerance).
 void share_single_scattering(const std::vector<SingleScatteringTerm>& terms, double tolerance, FillInputs& in) {
     const std::size_t count = terms.size();
     const bool half_space = std::all_of(terms.begin(), terms.end(),
