@@ -23,8 +23,8 @@ brdf_require_package(nlohmann_json "nlohmann-json3-dev")
 brdf_require_package(CLI11 "libcli11-dev")
 brdf_require_package(OpenEXR "libopenexr-dev")
 brdf_require_package(PNG "libpng-dev")
-# ISA-L's igzip compresses the OpenEXR tables' ZIP blocks (formats/exr/zip_writer.h): 4 times
-# zlib's speed, which OpenEXR 3.1 uses, and twice libdeflate's.
+# ISA-L's igzip compresses the OpenEXR tables' ZIP blocks (formats/exr/zip_writer.h): twice the
+# speed of libdeflate's fastest level, which is three times zlib's (OpenEXR 3.1's).
 find_package(PkgConfig QUIET)
 if(PkgConfig_FOUND)
   pkg_check_modules(libisal QUIET IMPORTED_TARGET libisal)

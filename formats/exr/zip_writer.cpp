@@ -33,6 +33,7 @@ constexpr int deflate_level = 2;
 // with garbage they changed the stream it made of a block now and then (valid, but other bytes). So
 // the stream is zeroed for every block, and a block's bytes depend on that block alone, whichever
 // thread compresses it and whatever it compressed before.
+static_assert(deflate_level == 2, "the level buffer below is level 2's");
 struct Deflater {
     std::unique_ptr<isal_zstream> stream = std::make_unique<isal_zstream>();
     std::vector<std::uint8_t> level_buffer = std::vector<std::uint8_t>(ISAL_DEF_LVL2_DEFAULT);
