@@ -23,14 +23,14 @@ brdf_require_package(nlohmann_json "nlohmann-json3-dev")
 brdf_require_package(CLI11 "libcli11-dev")
 brdf_require_package(OpenEXR "libopenexr-dev")
 brdf_require_package(PNG "libpng-dev")
-# ISA-L's igzip compresses the OpenEXR tables' ZIP blocks (formats/exr/zip_writer.h): twice the
-# speed of libdeflate's fastest level, which is three times zlib's (OpenEXR 3.1's).
+# libdeflate compresses the OpenEXR tables' ZIP blocks (formats/exr/zip_writer.h): about twice
+# zlib's speed, which OpenEXR 3.1 uses.
 find_package(PkgConfig QUIET)
 if(PkgConfig_FOUND)
-  pkg_check_modules(libisal QUIET IMPORTED_TARGET libisal)
+  pkg_check_modules(libdeflate QUIET IMPORTED_TARGET libdeflate)
 endif()
-if(NOT TARGET PkgConfig::libisal)
-  message(FATAL_ERROR "brdf-service needs ISA-L (Debian package: libisal-dev). ${BRDF_INSTALL_HINT}.")
+if(NOT TARGET PkgConfig::libdeflate)
+  message(FATAL_ERROR "brdf-service needs libdeflate (Debian package: libdeflate-dev). ${BRDF_INSTALL_HINT}.")
 endif()
 find_package(Threads REQUIRED)
 # Dense linear algebra: OpenBLAS (runtime CPU dispatch, so one portable build uses AVX2/AVX-512 where

@@ -4,9 +4,8 @@
 //
 // OpenEXR 3.1 (Debian 12) compresses ZIP blocks with zlib: 0.15-0.2 s of every table's 17.5 MB,
 // most of a material's write. OpenEXR 3.2 moved to libdeflate for that reason; here the blocks are
-// compressed by ISA-L's igzip (twice libdeflate's speed) on every core and handed to OpenEXR ready
-// to write (exr_write_scanline_chunk), so OpenEXR still writes the header, the blocks and the
-// offset table.
+// compressed by libdeflate on every core and handed to OpenEXR ready to write
+// (exr_write_scanline_chunk), so OpenEXR still writes the header, the blocks and the offset table.
 // What a ZIP block holds is OpenEXR's (the file format's "ZIP compression"): 16 scanlines in
 // Xdr layout (per line, each channel's row in the header's channel order, little-endian), the bytes
 // split into the even and the odd ones, each byte replaced by its difference to the one before plus

@@ -8,7 +8,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
-  libpng-dev libopenexr-dev openexr libisal-dev
+  libpng-dev libopenexr-dev openexr libdeflate-dev
   libopenimageio-dev openimageio-tools
   nlohmann-json3-dev libcli11-dev
   libopenblas-dev liblapacke-dev
