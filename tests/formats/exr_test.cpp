@@ -502,7 +502,7 @@ TEST(ExrWrite, BlocksThatDoNotShrinkAreStoredAsTheyAre) {
 
 // Every core compresses blocks as it claims them (formats/exr/zip_writer.cpp), so which thread
 // compresses a block, and what it compressed before, changes from run to run: the file must not
-// (docs/formats.md says why ISA-L's igzip is not used). Tables of smooth values and of random bits
+// (docs/formats.md says why ISA-L's igzip is not used). Tables of smooth and of random values
 // written in turn leave each thread's compressor in another state every time; each table comes
 // back as the same bytes.
 TEST(ExrWrite, TheSameTableIsWrittenAsTheSameBytesEveryTime) {
