@@ -517,7 +517,8 @@ TEST(ExrWrite, TheSameTableIsWrittenAsTheSameBytesEveryTime) {
         }
     write_exr(dir / "smooth.exr", smooth);
     write_exr(dir / "noise.exr", noise);
-    const auto first_smooth = test::read_file(dir / "smooth.exr"), first_noise = test::read_file(dir / "noise.exr");
+    const std::string first_smooth = test::read_file(dir / "smooth.exr");
+    const std::string first_noise = test::read_file(dir / "noise.exr");
     for (int round = 0; round < 4; ++round) {
         write_exr(dir / "smooth.exr", smooth);
         ASSERT_TRUE(test::read_file(dir / "smooth.exr") == first_smooth) << "round " << round;
