@@ -31,6 +31,14 @@ float as_float(double v) {
     return static_cast<float>(v);
 }
 
+// The next value of a xorshift32 sequence (Marsaglia 2003): reproducible test values.
+std::uint32_t xorshift32(std::uint32_t& state) {
+    state ^= state << 13;
+    state ^= state >> 17;
+    state ^= state << 5;
+    return state;
+}
+
 // Other tools must read our files: OpenImageIO reports the layout of docs/design.md.
 TEST(ExrFormat, OpenImageIOSeesTheDocumentedLayoutAndAttributes) {
     TempDir dir;
@@ -466,16 +474,10 @@ TEST(ExrWrite, BlocksThatDoNotShrinkAreStoredAsTheyAre) {
     TempDir dir;
     BrdfTable t = test::analytic_table();
     std::uint32_t state = 12345;
-    const auto next = [&state] { // xorshift32
-        state ^= state << 13;
-        state ^= state >> 17;
-        state ^= state << 5;
-        return state;
-    };
     for (std::size_t cell = 0; cell < cells / 2; ++cell) {
         if (cell_below_horizon(cell)) continue;
         for (int c = 0; c < 3; ++c) {
-            const std::uint32_t bits = next() & 0x7f7fffffu; // positive, finite
+            const std::uint32_t bits = xorshift32(state) & 0x7f7fffffu; // positive, finite
             float v;
             std::memcpy(&v, &bits, sizeof v);
             t.channels[c][cell] = v;
@@ -511,10 +513,8 @@ TEST(ExrWrite, TheSameTableIsWrittenAsTheSameBytesEveryTime) {
     BrdfTable noise = smooth;
     std::uint32_t state = 777;
     for (std::size_t cell = 0; cell < cells; cell += 3)
-        for (int c = 0; c < 3; ++c) {
-            state ^= state << 13, state ^= state >> 17, state ^= state << 5; // xorshift32
-            noise.channels[c][cell] = static_cast<double>(state % 1000003u) * 1e-6;
-        }
+        for (int c = 0; c < 3; ++c)
+            noise.channels[c][cell] = static_cast<double>(xorshift32(state) % 1000003u) * 1e-6;
     write_exr(dir / "smooth.exr", smooth);
     write_exr(dir / "noise.exr", noise);
     const std::string first_smooth = test::read_file(dir / "smooth.exr");

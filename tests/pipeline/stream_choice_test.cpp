@@ -149,13 +149,13 @@ TEST(StreamChoice, AStartCountConvergingAsTheQuadratureStudysIsKeptByItsMeasured
 
 // Under a rough top the orders carry the single scattering's delta-M residual: the check skips the
 // counts whose spread residual says they would fail (docs/physics.md, "Rough interface", "Which
-// counts the check skips") and confirms the first it keeps from above. The seed's rutile at the two wavelengths the
-// visible spectrum probes: under gloss and satin 32 streams are skipped and 48 are confirmed by 64,
-// which must meet the tolerance against a fine solve; under matte, whose broad lobes average the
-// residual out, nothing is skipped and 32 are confirmed from below as under a smooth top. The gloss's
-// 48 streams (the count the check also chose before it skipped) come to 1.06e-4 against the fine
-// solve at 20 degrees retro-reflection, a direction between the check's probes (9.4e-5 there): the
-// bound for it is 1.1 times the tolerance.
+// counts the check skips") and confirms the first it keeps from above. The seed's rutile at the
+// two wavelengths the visible spectrum probes: under gloss and satin 32 streams are skipped and 48
+// are confirmed by 64, which must meet the tolerance against a fine solve; under matte, whose broad
+// lobes average the residual out, nothing is skipped and 32 are confirmed from below as under a
+// smooth top. The gloss's 48 streams (the count the check also chose before it skipped) come to
+// 1.06e-4 against the fine solve at 20 degrees retro-reflection, a direction between the check's
+// probes (9.4e-5 there): the bound for it is 1.1 times the tolerance.
 TEST(StreamChoice, ARoughTopSkipsTheCountsItsSpreadResidualRulesOut) {
     const std::string pigment = R"({"binder": {"material": "pmma"}, "spectrum": {"wavelengths_nm": [380, 780]},
         "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
