@@ -103,6 +103,60 @@ TEST(Progress, RedrawsAtMostTenTimesASecond) {
     EXPECT_LE(term.writes - before, 6);
 }
 
+// A stage that turns out long (a large particle's Lorenz-Mie optics) is weighed again: the fraction
+// and the ETA follow the new weights at once.
+TEST(Progress, AStageWeighedAgainMovesTheFractionAndTheEta) {
+    FakeTerminal term;
+    ProgressLine line(term.options());
+    Progress p("m", {{"optics", 0.1}, {"solve", 0.45}, {"table", 0.45}}, &line);
+    p.stage("optics");
+    p.advance(0.1);
+    term.now += 10.0;
+    EXPECT_NEAR(p.fraction(), 0.01, 1e-12);
+    EXPECT_NEAR(line.eta_seconds(), 990.0, 1e-6); // as if the other stages took 90 % of the time
+    p.set_weight("optics", 99.1);                  // the optics: 99.1 % of the time
+    EXPECT_NEAR(p.fraction(), 0.0991, 1e-12);
+    EXPECT_NEAR(line.eta_seconds(), 10.0 * 0.9009 / 0.0991, 1e-6);
+    p.set_weight("nothing", 5.0); // an unknown stage changes nothing
+    EXPECT_NEAR(p.fraction(), 0.0991, 1e-12);
+    p.stage("table");
+    p.advance(1.0);
+    EXPECT_NEAR(p.fraction(), 1.0, 1e-12);
+}
+
+// Two workers, items of cost 2, 2, 1, 1 taking a second per unit: the projection counts the items
+// in flight (elapsed / fraction-done would first say 6 s where it takes 3), and an item running
+// longer than its share is not counted beyond it.
+TEST(WorkProjection, CountsTheItemsInFlightAndTheWorkers) {
+    WorkProjection p({2.0, 2.0, 1.0, 1.0}, 2);
+    EXPECT_LT(p.projected_total(0.0), 0.0) << "nothing to go by yet";
+    p.start(0, 0.0);
+    p.start(1, 0.0);
+    EXPECT_LT(p.projected_total(1.0), 0.0);
+    p.finish(0, 2.0);
+    // Item 1 has done its 2 s too; items 2 and 3 then share the workers: 1 s more.
+    EXPECT_NEAR(p.projected_total(2.0), 3.0, 1e-12);
+    p.finish(1, 2.0);
+    p.start(2, 2.0);
+    p.start(3, 2.0);
+    EXPECT_NEAR(p.projected_total(2.5), 3.0, 1e-12);
+    p.finish(2, 3.0);
+    // Item 3, still running at 4 s, counts as done at its share: only the time passed shows.
+    EXPECT_NEAR(p.projected_total(4.0), 4.0, 1e-12);
+    p.finish(3, 4.0);
+    p.finish(3, 9.0); // a second finish changes nothing
+    EXPECT_NEAR(p.projected_total(4.0), 4.0, 1e-12);
+}
+
+// One worker is one at a time, however many items are left: the rate times what is left.
+TEST(WorkProjection, OneWorkerAddsUpTheRest) {
+    WorkProjection p({1.0, 3.0, 4.0}, 1);
+    p.start(0, 10.0);
+    p.finish(0, 12.0); // 2 s per unit
+    p.start(1, 12.0);
+    EXPECT_NEAR(p.projected_total(13.0), 2.0 + 14.0, 1e-12); // 7 units of 2 s after the first
+}
+
 TEST(Progress, EtaFromElapsedTime) {
     FakeTerminal term;
     ProgressLine line(term.options());

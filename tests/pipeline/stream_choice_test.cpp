@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -247,17 +248,63 @@ TEST(StreamChoice, LongSolveIsAnnouncedWithItsEstimate) {
                                   "spectrum": "rgb"})", "draft");
     model::NumericalSettings st = model::settings_for(spec.accuracy.tolerance);
     std::vector<std::string> notes;
-    const auto keep = [&notes](const std::string& text) { notes.push_back(text); };
-    model::solve_material(spec, model::Device::Cpu, st, keep);
+    model::SolveFeedback feedback;
+    feedback.note = [&notes](const std::string& text) { notes.push_back(text); };
+    model::solve_material(spec, model::Device::Cpu, st, feedback);
     EXPECT_TRUE(notes.empty()) << notes.front();
     st.note_after_seconds = 0.0; // every material counts as long
-    const auto solved = model::solve_material(spec, model::Device::Cpu, st, keep);
+    const auto solved = model::solve_material(spec, model::Device::Cpu, st, feedback);
     ASSERT_EQ(notes.size(), 1u);
     EXPECT_EQ(notes[0].rfind("streams: about ", 0), 0u) << notes[0];
     EXPECT_NE(notes[0].find(" to solve and tabulate (" + std::to_string(solved.samples.size()) + " samples at " +
                             std::to_string(solved.settings.streams) + " streams)"),
               std::string::npos)
         << notes[0];
+}
+
+// The particles' optics (Lorenz-Mie per wavelength) as they go: fractions that only grow, ending
+// at 1 before anything else, projections that the time taken never exceeds by far; and, where
+// what is left counts as long, their estimate said once with the number of wavelengths. An
+// analytic material has no such work: one call, with 1.
+TEST(StreamChoice, TheOpticsReportTheirProgressAndALongOneItsEstimate) {
+    const auto spec = spec_of(R"({"binder": {"material": "pmma"}, "spectrum": "visible",
+        "pigments": [{"material": "tio2-rutile", "volume_fraction": 0.1,
+                      "size": {"distribution": "power_law", "r_eff_um": 0.4, "v_eff": 0.3}}]})", "draft");
+    model::NumericalSettings st = model::settings_for(spec.accuracy.tolerance);
+    st.note_after_seconds = 0.0; // everything counts as long
+    std::vector<std::string> notes;
+    std::vector<std::pair<double, double>> calls; // fraction, projected seconds
+    model::SolveFeedback feedback;
+    feedback.note = [&notes](const std::string& text) { notes.push_back(text); };
+    feedback.optics = [&](double fraction, double projected) {
+        if (fraction >= 1.0) {
+            EXPECT_LE(notes.size(), 1u) << "the optics' note comes before the solve's";
+        }
+        calls.emplace_back(fraction, projected);
+    };
+    const auto t0 = std::chrono::steady_clock::now();
+    model::solve_material(spec, model::Device::Cpu, st, feedback);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ASSERT_GE(calls.size(), 2u);
+    for (std::size_t k = 1; k < calls.size(); ++k) EXPECT_GE(calls[k].first, calls[k - 1].first);
+    for (std::size_t k = 0; k + 1 < calls.size(); ++k) EXPECT_LT(calls[k].first, 1.0);
+    EXPECT_EQ(calls.back().first, 1.0);
+    for (const auto& [fraction, projected] : calls) {
+        EXPECT_GT(projected, 0.0);
+        EXPECT_LT(projected, 10.0 * seconds + 1.0);
+    }
+    ASSERT_EQ(notes.size(), 2u); // the optics', then the solve's
+    EXPECT_EQ(notes[0].rfind("streams: about ", 0), 0u) << notes[0];
+    EXPECT_NE(notes[0].find(" for its particles' optics (Lorenz-Mie, 41 wavelengths)"), std::string::npos) << notes[0];
+    EXPECT_NE(notes[1].find(" to solve and tabulate ("), std::string::npos) << notes[1];
+
+    calls.clear();
+    notes.clear();
+    const auto hg = spec_of(R"({"medium": {"albedo": 0.9, "phase": {"type": "henyey_greenstein", "g": 0.5}},
+                                "spectrum": "rgb"})", "draft");
+    model::solve_material(hg, model::Device::Cpu, st, feedback);
+    ASSERT_EQ(calls.size(), 1u);
+    EXPECT_EQ(calls[0].first, 1.0);
 }
 
 } // namespace

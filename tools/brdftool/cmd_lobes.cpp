@@ -46,10 +46,14 @@ int run_lobes(LobesFlags& f) {
     progress->stage("solve");
     // The inputs at once: one solve alone leaves a core idle for much of its time (the probes, the
     // writes of a grid); errors are reported in the order of the inputs.
+    // A long material says so (its estimate, a line of its own); the bar counts whole inputs.
+    model::SolveFeedback feedback;
+    feedback.note = [&progress](const std::string& text) { progress->note(text); };
     std::vector<std::future<Source>> loading;
     for (const std::string& input : f.inputs)
-        loading.push_back(std::async(std::launch::async, [&f, input] {
-            Source s = load_source(input, is_spec_file(input) ? f.material : std::string{}, f.device.device());
+        loading.push_back(std::async(std::launch::async, [&f, &feedback, input] {
+            Source s = load_source(input, is_spec_file(input) ? f.material : std::string{}, f.device.device(), {},
+                                   feedback);
             // 361 directions per curve, each a solve off the nodes without the interpolant; a
             // plot's resolution is served by the previews' grid, a third of the tables' cost.
             s.use_interpolant(preview::preview_zenith_grid);

@@ -42,10 +42,10 @@ int run_render(RenderFlags& f) {
 
     const auto t0 = std::chrono::steady_clock::now();
     ProgressLine line(isatty(STDERR_FILENO) ? ProgressLine::terminal() : ProgressLine::Options{});
-    std::optional<Progress> progress(std::in_place, f.input, std::vector<ProgressStage>{{"solve", 0.6}, {"render", 0.4}},
-                                     &line);
-    progress->stage("solve");
-    const Source source = load_source(f.input, f.material, f.device.device());
+    std::optional<Progress> progress(std::in_place, f.input,
+                                     std::vector<ProgressStage>{{"optics", 0.1}, {"solve", 0.5}, {"render", 0.4}}, &line);
+    progress->stage(is_spec_file(f.input) ? "optics" : "solve");
+    const Source source = load_source(f.input, f.material, f.device.device(), {}, model::feedback_on(*progress));
     progress->stage("render");
     preview::Image image;
     if (source.model) {

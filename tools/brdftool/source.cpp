@@ -53,7 +53,7 @@ material::MaterialSpec choose_spec(const std::filesystem::path& path, const std:
 }
 
 Source load_source(const std::filesystem::path& path, const std::string& material, model::Device device,
-                   const std::string& recorded) {
+                   const std::string& recorded, const model::SolveFeedback& feedback) {
     Source s;
     if (!is_spec_file(path)) {
         if (!material.empty()) throw InputError(cat("--material: only meaningful for a spec file, not ", path.string()));
@@ -73,7 +73,8 @@ Source load_source(const std::filesystem::path& path, const std::string& materia
             s.table = formats::read_table(path, format, spectral_to_rgb());
         return s;
     }
-    s.model = model::solve_material(choose_spec(path, material, recorded), device);
+    const material::MaterialSpec spec = choose_spec(path, material, recorded);
+    s.model = model::solve_material(spec, device, model::settings_for(spec.accuracy.tolerance), feedback);
     return s;
 }
 

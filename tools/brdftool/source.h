@@ -72,9 +72,10 @@ formats::SpectralToRgb spectral_to_rgb();
 /// A spec file (.json: the material named `material`, or its only one) or a table file. `recorded`
 /// (diff TABLE CATALOGUE: the material the table says it was computed from) picks the material of
 /// a spec holding several when `material` is empty. A name that is not there is an InputError
-/// listing the names there are.
+/// listing the names there are. `feedback` goes to a spec's solve (model::feedback_on: a command's
+/// progress line).
 Source load_source(const std::filesystem::path& path, const std::string& material, model::Device device,
-                   const std::string& recorded = {});
+                   const std::string& recorded = {}, const model::SolveFeedback& feedback = {});
 
 /// The name of the material a table file was computed from: the "name" of the spec in its EXR
 /// brdf.spec attribute, else of the report written beside it (DIR/NAME.report.json for

@@ -30,6 +30,43 @@ std::string format_duration(double seconds) {
     return text;
 }
 
+// --- WorkProjection ----------------------------------------------------------------------------
+
+WorkProjection::WorkProjection(std::vector<double> costs, int workers)
+    : m_costs(std::move(costs)), m_started(m_costs.size(), -1.0), m_finished(m_costs.size(), 0),
+      m_workers(std::max(1, workers)) {
+    for (double c : m_costs) m_total += std::max(0.0, c);
+}
+
+void WorkProjection::start(std::size_t item, double now) {
+    if (item >= m_costs.size()) return;
+    m_started[item] = now;
+    if (m_first < 0.0) m_first = now;
+}
+
+void WorkProjection::finish(std::size_t item, double now) {
+    if (item >= m_costs.size() || m_finished[item] || m_started[item] < 0.0) return;
+    m_finished[item] = 1;
+    m_done_cost += std::max(0.0, m_costs[item]);
+    m_done_seconds += now - m_started[item];
+}
+
+double WorkProjection::projected_total(double now) const {
+    if (!(m_done_cost > 0.0) || m_first < 0.0) return -1.0;
+    // Worker-seconds still to go: every unfinished item at the measured rate, less what the running
+    // ones have done already; shared by the workers, but never by more than the items left.
+    const double rate = m_done_seconds / m_done_cost;
+    double left = rate * (m_total - m_done_cost);
+    int unfinished = 0;
+    for (std::size_t i = 0; i < m_costs.size(); ++i) {
+        if (m_finished[i]) continue;
+        ++unfinished;
+        if (m_started[i] >= 0.0) left -= std::min(now - m_started[i], rate * std::max(0.0, m_costs[i]));
+    }
+    const int sharing = std::max(1, std::min(m_workers, unfinished));
+    return now - m_first + std::max(0.0, left) / sharing;
+}
+
 // --- ProgressLine ------------------------------------------------------------------------------
 
 ProgressLine::Options ProgressLine::terminal() {
@@ -217,6 +254,18 @@ void Progress::advance(double fraction) {
         std::lock_guard lock(m_mutex);
         if (m_stage < 0 || !(fraction >= 0.0)) return;
         m_stage_fraction = std::max(m_stage_fraction, std::min(1.0, fraction));
+    }
+    if (m_line) m_line->changed(false);
+}
+
+void Progress::set_weight(std::string_view name, double weight) {
+    {
+        std::lock_guard lock(m_mutex);
+        m_total_weight = 0.0;
+        for (ProgressStage& s : m_stages) {
+            if (s.name == name) s.weight = weight;
+            m_total_weight += std::max(0.0, s.weight);
+        }
     }
     if (m_line) m_line->changed(false);
 }

@@ -28,6 +28,29 @@ namespace brdf {
 /// digits below a minute. Negative or non-finite input gives "?".
 std::string format_duration(double seconds);
 
+/// How long independent items of known relative cost take in all, done `workers` at a time,
+/// projected from those finished so far: seconds per unit of cost from the finished items (each
+/// timed from its own start), the running ones counted with the time they have run. A plain
+/// elapsed / fraction-done would count nothing of the items in flight: with two workers it first
+/// projects twice the time. Not thread-safe (the caller serialises).
+class WorkProjection {
+public:
+    /// `costs`: each item's expected cost, > 0 (any unit: only ratios count).
+    WorkProjection(std::vector<double> costs, int workers);
+    /// Times in seconds on any one clock.
+    void start(std::size_t item, double now);
+    void finish(std::size_t item, double now);
+    /// Seconds from the first start to the projected end of the last item; negative before an
+    /// item has finished.
+    double projected_total(double now) const;
+
+private:
+    std::vector<double> m_costs, m_started;
+    std::vector<char> m_finished;
+    double m_total = 0.0, m_done_cost = 0.0, m_done_seconds = 0.0, m_first = -1.0;
+    int m_workers = 1;
+};
+
 struct ProgressStage {
     std::string name;
     double weight = 1.0; ///< share of the task's time, > 0 (normalised over the stages)
@@ -97,6 +120,10 @@ public:
     void stage(std::string_view name);
     /// Fraction of the current stage done, clamped to 0..1; never goes back.
     void advance(double fraction);
+    /// Gives stage `name` another weight, for a caller that learns how long it will take (compute:
+    /// the projected seconds of a material's Lorenz-Mie optics). The task's fraction moves with it,
+    /// either way; an unknown name is ignored.
+    void set_weight(std::string_view name, double weight);
     /// Something a user should know before waiting, e.g. the estimated time of a long material: a
     /// line of its own on a terminal, log::info otherwise.
     void note(std::string_view text);

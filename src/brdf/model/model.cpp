@@ -20,6 +20,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <mutex>
 
 namespace brdf::model {
 namespace {
@@ -539,7 +540,8 @@ std::string device_label(Device device) {
     return device == Device::OpenCL ? "opencl: " + cl::Context::shared()->info().name : "cpu";
 }
 
-MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& st) {
+MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& st,
+                               const OpticsProgress& progress) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     MaterialOptics out;
     std::vector<SpectralOptics>& optics = out.optics;
@@ -561,9 +563,27 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
         const auto wavelengths = spec.spectrum.wavelengths_nm();
         const auto rgb = spec.spectrum.rgb_weights(spec.colorspace);
         optics.resize(wavelengths.size());
+        // Each wavelength's expected share of the work, for `progress`: a sphere's series has ~x
+        // terms, its intensities as many angles per term, and x goes as 1 / lambda.
+        std::vector<double> costs;
+        for (double w : wavelengths) costs.push_back(1.0 / (w * w));
+        const int threads = available_cpus();
+        WorkProjection projection(std::move(costs), threads);
+        std::mutex progress_mutex;
+        const auto t0 = std::chrono::steady_clock::now();
         // Wavelengths are independent: split them over the cores.
-        parallel_for(static_cast<int>(wavelengths.size()), available_cpus(),
-                     [&](int k) { optics[k] = spectral_optics(spec, wavelengths[k], st.mie_tolerance); });
+        parallel_for(static_cast<int>(wavelengths.size()), threads, [&](int k) {
+            if (progress) {
+                const std::lock_guard lock(progress_mutex);
+                projection.start(static_cast<std::size_t>(k), seconds_since(t0));
+            }
+            optics[k] = spectral_optics(spec, wavelengths[k], st.mie_tolerance);
+            if (!progress) return;
+            const std::lock_guard lock(progress_mutex);
+            const double now = seconds_since(t0);
+            projection.finish(static_cast<std::size_t>(k), now);
+            progress(now, projection.projected_total(now));
+        });
         std::vector<Rgb> all(rgb.begin(), rgb.end());
         // Where the single scattering is apart, a skipped wavelength keeps its own exactly and
         // only its multiply scattered light is interpolated (SingleScatteringSample).
@@ -622,12 +642,24 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
     return out;
 }
 
+SolveFeedback feedback_on(Progress& progress) {
+    SolveFeedback f;
+    f.note = [&progress](const std::string& text) { progress.note(text); };
+    f.optics = [&progress](double fraction, double projected_seconds) {
+        if (projected_seconds > 1.0) progress.set_weight("optics", projected_seconds);
+        progress.advance(fraction);
+        if (fraction >= 1.0) progress.stage("solve");
+    };
+    return f;
+}
+
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device) {
     return solve_material(spec, device, settings_for(spec.accuracy.tolerance));
 }
 
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings,
-                              const std::function<void(const std::string&)>& note, DeviceCheck device_check) {
+                              const SolveFeedback& feedback, DeviceCheck device_check) {
+    const auto& note = feedback.note;
     check_supported(spec);
     SolvedMaterial out;
     out.spec = spec;
@@ -663,7 +695,24 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
     // 1. Optics per wavelength (or per channel of an analytic material), every layer.
     auto t0 = std::chrono::steady_clock::now();
     const std::string who = spec.source.empty() ? spec.name : spec.source;
-    MaterialOptics mo = material_optics(spec, st);
+    // Large particles' optics take minutes (silica r_eff 200 um: ~3 min here) before anything else
+    // is known: the bar follows them, and where what is left will take long, the estimate is said
+    // once (after a second: the first wavelengths' times are what it goes by).
+    bool optics_announced = false;
+    double optics_fraction = 0.0; // never back, and 1 only once they are all done
+    const auto optics_progress = [&](double elapsed, double projected) {
+        if (!(projected > 0.0)) return;
+        optics_fraction = std::max(optics_fraction, std::min(elapsed / projected, 0.999));
+        if (feedback.optics) feedback.optics(optics_fraction, projected);
+        if (note && !optics_announced && elapsed >= std::min(1.0, st.note_after_seconds) &&
+            projected - elapsed > st.note_after_seconds) {
+            optics_announced = true;
+            note(cat(spec.name, ": about ", format_duration(projected), " for its particles' optics (Lorenz-Mie, ",
+                     spec.spectrum.wavelengths_nm().size(), " wavelengths)"));
+        }
+    };
+    MaterialOptics mo = material_optics(spec, st, optics_progress);
+    if (feedback.optics) feedback.optics(1.0, seconds_since(t0));
     std::vector<SpectralOptics>& optics = mo.optics;
     std::vector<Rgb>& weights = mo.weights;
     out.wavelengths_interpolated = mo.wavelengths_interpolated;

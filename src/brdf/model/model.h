@@ -16,6 +16,10 @@
 #include <string>
 #include <vector>
 
+namespace brdf {
+class Progress; // core/progress.h
+}
+
 namespace brdf::model {
 
 using Rgb = std::array<double, 3>;
@@ -169,7 +173,14 @@ struct MaterialOptics {
     std::vector<SpectralOptics> single_only;
     std::vector<Rgb> single_only_weights;
 };
-MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& settings);
+/// material_optics' progress: the seconds its optics have taken, and the seconds they are projected
+/// to take in all (WorkProjection: each wavelength's expected cost 1 / lambda^2, as the Lorenz-Mie
+/// series' terms and its angles both grow with the size parameter).
+using OpticsProgress = std::function<void(double elapsed_seconds, double projected_seconds)>;
+/// `progress`, when given, is called as each wavelength's optics are done (from the threads that
+/// compute them, one call at a time). An analytic material has no such work and makes no call.
+MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& settings,
+                               const OpticsProgress& progress = {});
 
 /// Brings an out-of-gamut colour into the spec's colour space by scaling every colour weight's chroma
 /// about its luminance (material::fit_into_gamut: the same factor for all wavelengths, so the map
@@ -198,16 +209,33 @@ std::string device_label(Device device);
 /// that the caller starts no thread of its own while PoCL may still be loading its libraries.
 enum class DeviceCheck { BeforeReturn, Caller, CallerFillsTable };
 
+/// What solve_material tells a user waiting (compute shows both on its progress line).
+struct SolveFeedback {
+    /// What a user should know before a long part, once per part: for a material whose particles'
+    /// optics (Lorenz-Mie) will take over settings.note_after_seconds, their estimate once the
+    /// first wavelengths are done (their time scaled by the expected cost of the rest), e.g.
+    /// "NAME: about 3 min 20 s for its particles' optics (Lorenz-Mie, 41 wavelengths)"; for one
+    /// whose solve and tables will, the estimate from the stream check's own solves of the hardest
+    /// samples, scaled to all samples and cores, e.g. "NAME: about 2 min 10 s to solve and
+    /// tabulate (41 samples at 64 streams)". compute shows them as lines of their own.
+    std::function<void(const std::string&)> note;
+    /// The optics as they go (material_optics' `progress`): the fraction of their projected time
+    /// that has passed (never less than before, below 1), and that projection; called with 1 once
+    /// they are done, before the stream check.
+    std::function<void(double fraction, double projected_seconds)> optics;
+};
+
+/// Feedback shown on a command's progress line: notes as lines of their own, the optics as the task's
+/// stage "optics" and then its stage "solve". Once the optics are projected to take over a second,
+/// their stage weighs their projected seconds, the stages after it about 1 in all (a second's work
+/// for most materials): the bar and its ETA then follow a large particle's minutes of Lorenz-Mie.
+SolveFeedback feedback_on(Progress& progress);
+
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device);
-/// `note`, when given, is told what a user waiting should know before the long part: for a
-/// material whose solve and tables will take over settings.note_after_seconds, the estimate (from
-/// the stream check's own solves of the hardest samples, scaled to all samples and cores), e.g.
-/// "NAME: about 2 min 10 s to solve and tabulate (41 samples at 64 streams)". compute shows it as
-/// a line of its own.
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device, const NumericalSettings& settings,
-                              const std::function<void(const std::string&)>& note = {},
+                              const SolveFeedback& feedback = {},
                               DeviceCheck device_check = DeviceCheck::BeforeReturn);
 
 } // namespace brdf::model

@@ -180,8 +180,9 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     outcome.name = spec.name;
     const auto t0 = std::chrono::steady_clock::now();
     const std::vector<std::string> formats = formats_for(spec, options);
-    // The stages as they are called below; solve_material does the optics too.
-    Progress progress(spec.name, {{"solve", 0.45}, {"table", 0.45}, {"write", 0.1}}, line);
+    // The stages as they are called below; solve_material does the optics (Lorenz-Mie) first, and
+    // weighs them by their projected seconds where they take long (model::feedback_on).
+    Progress progress(spec.name, {{"optics", 0.1}, {"solve", 0.35}, {"table", 0.45}, {"write", 0.1}}, line);
     std::optional<std::string> other_job;
     if (!options.job.empty() && (other_job = materials_in_flight().enter(spec.name, options.job, spec.hash)))
         throw InputError(cat(options.job, ": material '", spec.name, "' is being computed by job ", *other_job,
@@ -201,7 +202,7 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     }
     check_results_owner(spec, old_report, options);
     check_spectral_output(spec, formats);
-    progress.stage("solve");
+    progress.stage("optics");
     // Tables hold float32 (EXR) values at bin centres, filled by interpolating a Fourier grid whose
     // error is about 1e-6 at the finest grid: solving tighter than that changes no table a renderer
     // can tell apart, so the tables' solve stops there (eval on a spec keeps the requested tolerance).
@@ -216,10 +217,9 @@ MaterialOutcome compute_one(const material::MaterialSpec& spec, const ComputeOpt
     // The fill's program loads on the thread that opens the device (PoCL reads it from its cache
     // through LLVM, on one core) while the per-order grids are made; a failure is left to the fill,
     // which loads it again and says why.
-    model::SolvedMaterial solved = model::solve_material(
-        spec, options.device, model::settings_for(tolerance),
-        [&progress](const std::string& text) { progress.note(text); },
-        tabulated ? model::DeviceCheck::CallerFillsTable : model::DeviceCheck::Caller);
+    model::SolvedMaterial solved =
+        model::solve_material(spec, options.device, model::settings_for(tolerance), model::feedback_on(progress),
+                              tabulated ? model::DeviceCheck::CallerFillsTable : model::DeviceCheck::Caller);
     progress.stage("table");
     auto t = std::chrono::steady_clock::now();
     const model::FillInputs fill = model::prepare_fill(solved);
