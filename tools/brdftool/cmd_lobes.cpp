@@ -44,11 +44,11 @@ int run_lobes(LobesFlags& f) {
     std::optional<Progress> progress(std::in_place, "lobes", std::vector<ProgressStage>{{"solve", 0.8}, {"plot", 0.2}},
                                      &line);
     progress->stage("solve");
-    // The inputs at once: one solve alone leaves a core idle for much of its time (the probes, the
-    // writes of a grid); errors are reported in the order of the inputs.
     // A long material says so (its estimate, a line of its own); the bar counts whole inputs.
     model::SolveFeedback feedback;
     feedback.note = [&progress](const std::string& text) { progress->note(text); };
+    // The inputs at once: one solve alone leaves a core idle for much of its time (the probes, the
+    // writes of a grid); errors are reported in the order of the inputs.
     std::vector<std::future<Source>> loading;
     for (const std::string& input : f.inputs)
         loading.push_back(std::async(std::launch::async, [&f, &feedback, input] {
