@@ -30,8 +30,11 @@ INSTANTIATE_TEST_SUITE_P(Cases, DisortFilm, ::testing::ValuesIn(disort_labels("h
 
 // ---- The numpy adding reference: films and stacks under smooth interfaces -----------------------
 
+// A clear binder layer of the reference ({"clear": true}).
+bool is_clear(const json& l) { return l.contains("clear") && l.at("clear") == true; }
+
 json layer_spec(const json& l) {
-    if (l.value("clear", false)) return {{"binder", {{"index", l.at("index")}}}, {"thickness_um", 1.0}};
+    if (is_clear(l)) return {{"binder", {{"index", l.at("index")}}}, {"thickness_um", 1.0}};
     json medium = {{"albedo", l.at("omega")}, {"phase", l.at("phase")}, {"index", l.at("index")}};
     if (l.at("optical_depth").is_number()) medium["optical_depth"] = l.at("optical_depth");
     return {{"medium", medium}};
@@ -50,8 +53,7 @@ void expect_matches_adding(const std::string& file, double tolerance) {
     const json all = reference(file);
     for (const auto& c : all.at("cases")) {
         const std::string label = c.at("label");
-        const bool clear = std::any_of(c.at("layers").begin(), c.at("layers").end(),
-                                       [](const json& l) { return l.value("clear", false); });
+        const bool clear = std::any_of(c.at("layers").begin(), c.at("layers").end(), is_clear);
         // A clear binder layer makes the stack particulate: solved per wavelength, here the three
         // of "rgb", all alike (constant indices, grey media); sample 0 is compared.
         json spec = adding_spec(c, "default");
