@@ -96,7 +96,7 @@ TEST(Stack, SplittingALayerChangesNothing) {
         EXPECT_LE(worst_relative(split, one), 1e-9) << "n " << n;
         // and a semi-infinite layer under a slice of itself
         Stack over_half = rte::half_space(m, n);
-        over_half.layers.insert(over_half.layers.begin(), Layer{m, 0.6, n});
+        over_half.layers = {Layer{m, 0.6, n}, over_half.layers.front()};
         EXPECT_LE(worst_relative(solve_stack(over_half), solve_stack(rte::half_space(m, n))), 1e-9) << "n " << n;
     }
 }
@@ -105,7 +105,7 @@ TEST(Stack, ClearIndexMatchedLayerChangesNothing) {
     const rte::Medium m{0.95, hg_beta(0.4, 40)};
     const rte::Medium clear{0.0, {1.0}};
     Stack with = rte::half_space(m, 1.5);
-    with.layers.insert(with.layers.begin(), Layer{clear, 0.0, 1.5});
+    with.layers = {Layer{clear, 0.0, 1.5}, with.layers.front()};
     EXPECT_LE(worst_relative(solve_stack(with), solve_stack(rte::half_space(m, 1.5))), 1e-12);
 }
 
