@@ -164,7 +164,8 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
                     state = S_FP_DONE;
                     break;
                 }
-                op = OP_GEMM, mode = MODE_ADD, out = t, base = sweep_right, a = riccati_c, b = x; // right + C X
+                // right + C X; the first sweep starts from X = 0 and needs no products (OP_SWEEP)
+                if (it > 1) op = OP_GEMM, mode = MODE_ADD, out = t, base = sweep_right, a = riccati_c, b = x;
                 state = S_FP_SWEEP;
                 break;
             case S_FP_SWEEP:
@@ -447,9 +448,10 @@ __kernel void ambartsumian_solve(__global const AmbTask* tasks, __global const d
             for (int q = lid; q < n2; q += lsz) {
                 const int i = q / n, j = q % n;
                 // (B + left X) + X (right + C X), t = right + C X: three products a sweep
+                // (the first from X = 0: B alone, as solve_fixed_point)
                 double lx = 0.0, xt = 0.0;
-                for (int k = 0; k < n; ++k) lx += sweep_left[i * n + k] * x[k * n + j];
-                for (int k = 0; k < n; ++k) xt += x[i * n + k] * t[k * n + j];
+                for (int k = 0; it > 1 && k < n; ++k) lx += sweep_left[i * n + k] * x[k * n + j];
+                for (int k = 0; it > 1 && k < n; ++k) xt += x[i * n + k] * t[k * n + j];
                 double v = (riccati_b[q] + lx) + xt;
                 v /= amb_fixed_point_divisor(mu[i], mu[j]);
                 nx[q] = v;

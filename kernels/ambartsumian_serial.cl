@@ -293,12 +293,17 @@ static void solve_task(__global const AmbTask* tasks, __global const double* inp
         double previous = 0.0, before = 0.0; // the changes of the last two sweeps
         for (it = 1; it <= cap; ++it) {
             // next = (B + left X) + X (right + C X): three products a sweep, as solve_fixed_point
-            mat_mul(nx, n, sweep_left, n, x, n, n);
-            for (int q = 0; q < n2; ++q) nx[q] = riccati_b[q] + nx[q];
-            mat_mul(t, n, riccati_c, n, x, n, n);
-            mat_add(t, sweep_right, n, n);
-            mat_mul(xt, n, x, n, t, n, n);
-            mat_add(nx, xt, n, n);
+            // (the first from X = 0: B alone, as solve_fixed_point)
+            if (it == 1) {
+                for (int q = 0; q < n2; ++q) nx[q] = riccati_b[q];
+            } else {
+                mat_mul(nx, n, sweep_left, n, x, n, n);
+                for (int q = 0; q < n2; ++q) nx[q] = riccati_b[q] + nx[q];
+                mat_mul(t, n, riccati_c, n, x, n, n);
+                mat_add(t, sweep_right, n, n);
+                mat_mul(xt, n, x, n, t, n, n);
+                mat_add(nx, xt, n, n);
+            }
             for (int q = 0; q < n2; ++q) nx[q] /= divisor[q];
             const double change = max_abs_diff_of(nx, x, n2);
             gptr sw = x;

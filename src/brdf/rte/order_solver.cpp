@@ -105,11 +105,16 @@ OrderSolution solve_fixed_point(const OrderProblem& pr, const SolveControl& cont
         // next = B + left X + X (right + C X); X right + X C X as X (right + C X): three products a
         // sweep, not four. Summed into the two buffers by gemm's beta = 1, the same additions in
         // the same order as the expression's, without its five new matrices a sweep.
+        // The first sweep starts from X = 0, where the products vanish: it is B alone (the single
+        // scattering), without three products of zeros (a third of the work of the many orders that
+        // converge in three sweeps: HG g 0.5 at 64 streams has 12 of its 24).
         next = b;
-        gemm(left, false, s.x, false, next, 1.0, 1.0);
-        inner = right;
-        gemm(c, false, s.x, false, inner, 1.0, 1.0);
-        gemm(s.x, false, inner, false, next, 1.0, 1.0);
+        if (s.iterations > 1) {
+            gemm(left, false, s.x, false, next, 1.0, 1.0);
+            inner = right;
+            gemm(c, false, s.x, false, inner, 1.0, 1.0);
+            gemm(s.x, false, inner, false, next, 1.0, 1.0);
+        }
         for (int i = 0; i < n; ++i)
             for (int j = 0; j < n; ++j) next(i, j) /= divisor(i, j);
         const double change = max_abs_diff(next, s.x);
