@@ -320,8 +320,17 @@ TEST(ComputeCli, FilmsReportContrastAndHidingPrintsIt) {
     EXPECT_LT(j["contrast_ratio"][0]["contrast_ratio"].get<double>(), j["contrast_ratio"][1]["contrast_ratio"].get<double>());
     EXPECT_LT(j["contrast_ratio"][1]["contrast_ratio"].get<double>(), j["contrast_ratio"][2]["contrast_ratio"].get<double>());
     ASSERT_TRUE(j["hiding_thickness_um"].is_number());
+    EXPECT_NE(h.err.find("brdftool hiding: dense, 3 thicknesses ("), std::string::npos) << h.err;
+    EXPECT_EQ(h.err.find('\r'), std::string::npos) << "no progress line off a terminal";
     const ProcessResult text = run_tool("brdftool", {"hiding", (dir / "films.json").string(), "--material", "dense"});
     EXPECT_NE(text.out.find("hiding thickness (contrast ratio 0.98): "), std::string::npos) << text.out;
+    // On a terminal its progress line (the optics, then the thicknesses), then the summary.
+    const ProcessResult shown = run_on_terminal({(bin_dir() / "brdftool").string(), "hiding",
+                                                 (dir / "films.json").string(), "--material", "dense"});
+    ASSERT_EQ(shown.status, 0) << shown.err;
+    EXPECT_NE(shown.err.find('\r'), std::string::npos) << shown.err;
+    EXPECT_NE(shown.err.find("hiding: "), std::string::npos) << shown.err;
+    EXPECT_NE(shown.err.find("brdftool hiding: dense, 8 thicknesses ("), std::string::npos) << shown.err;
 
     const ProcessResult bad = run_tool("brdftool", {"hiding", (dir / "films.json").string(), "--material", "dense",
                                                     "--thickness-um", "-3"});

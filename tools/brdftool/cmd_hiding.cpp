@@ -8,12 +8,17 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/progress.h>
 #include <brdf/model/film.h>
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
+
+#include <unistd.h>
 
 namespace brdf::tool {
 namespace {
@@ -35,11 +40,27 @@ int run_hiding(const HidingFlags& f) {
                              "varies; this material is ",
                              spec.layers.size() > 1 ? "a stack" : "an analytic medium or a clear film"));
     const model::NumericalSettings settings = model::settings_for(spec.accuracy.tolerance);
-    const model::MaterialOptics optics = model::material_optics(spec, settings);
+    // A large particle's Lorenz-Mie optics are nearly all of the time (silica r_eff 40 um: seconds,
+    // 200 um: minutes): the bar follows them as compute's does, with a long one's estimate; then
+    // each thickness, the hiding thickness's search counted as one more.
+    const auto t0 = std::chrono::steady_clock::now();
+    ProgressLine line(isatty(STDERR_FILENO) ? ProgressLine::terminal() : ProgressLine::Options{});
+    std::optional<Progress> progress(std::in_place, "hiding",
+                                     std::vector<ProgressStage>{{"optics", 0.5}, {"solve", 0.5}}, &line);
+    progress->stage("optics");
+    const model::MaterialOptics optics = model::material_optics(spec, settings, model::feedback_on(*progress));
+    progress->stage("solve");
     const int streams = settings.streams;
+    const double steps = static_cast<double>(f.thickness_um.size() + 1);
     std::vector<std::pair<double, double>> rows;
-    for (double t : f.thickness_um) rows.emplace_back(t, model::contrast_ratio(spec, optics, streams, t));
+    for (double t : f.thickness_um) {
+        rows.emplace_back(t, model::contrast_ratio(spec, optics, streams, t));
+        progress->advance(static_cast<double>(rows.size()) / steps);
+    }
     const std::optional<double> hiding = model::hiding_thickness_um(spec, optics, streams);
+    progress.reset();
+    std::fprintf(stderr, "brdftool hiding: %s, %zu thicknesses (%s)\n", spec.name.c_str(), rows.size(),
+                 format_duration(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()).c_str());
     if (f.json) {
         nlohmann::json out = {{"material", spec.name}, {"white_albedo", model::contrast_white_albedo},
                               {"target_contrast_ratio", model::hiding_contrast_ratio}};

@@ -642,6 +642,31 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
     return out;
 }
 
+MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& st,
+                               const SolveFeedback& feedback) {
+    // Large particles' optics take minutes (silica r_eff 200 um: ~3 min here) before anything else
+    // is known: the bar follows them, and where what is left will take long, the estimate is said
+    // once (after a second: the first wavelengths' times are what it goes by).
+    const auto t0 = std::chrono::steady_clock::now();
+    bool announced = false;
+    double fraction = 0.0; // never back, and 1 only once they are all done
+    const auto progress = [&](double elapsed, double projected) {
+        if (!(projected > 0.0)) return;
+        fraction = std::max(fraction, std::min(elapsed / projected, 0.999));
+        if (feedback.optics) feedback.optics(fraction, projected);
+        if (feedback.note && !announced && elapsed >= std::min(1.0, st.note_after_seconds) &&
+            projected - elapsed > st.note_after_seconds) {
+            announced = true;
+            feedback.note(cat(spec.name, ": about ", format_duration(projected),
+                              " for its particles' optics (Lorenz-Mie, ", spec.spectrum.wavelengths_nm().size(),
+                              " wavelengths)"));
+        }
+    };
+    MaterialOptics out = material_optics(spec, st, progress);
+    if (feedback.optics) feedback.optics(1.0, seconds_since(t0));
+    return out;
+}
+
 SolveFeedback feedback_on(Progress& progress) {
     SolveFeedback f;
     f.note = [&progress](const std::string& text) { progress.note(text); };
@@ -692,27 +717,10 @@ SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device,
         });
     }
 
-    // 1. Optics per wavelength (or per channel of an analytic material), every layer.
+    // 1. Optics per wavelength (or per channel of an analytic material), every layer; the bar and a
+    // long one's estimate follow them.
     auto t0 = std::chrono::steady_clock::now();
-    const std::string who = spec.source.empty() ? spec.name : spec.source;
-    // Large particles' optics take minutes (silica r_eff 200 um: ~3 min here) before anything else
-    // is known: the bar follows them, and where what is left will take long, the estimate is said
-    // once (after a second: the first wavelengths' times are what it goes by).
-    bool optics_announced = false;
-    double optics_fraction = 0.0; // never back, and 1 only once they are all done
-    const auto optics_progress = [&](double elapsed, double projected) {
-        if (!(projected > 0.0)) return;
-        optics_fraction = std::max(optics_fraction, std::min(elapsed / projected, 0.999));
-        if (feedback.optics) feedback.optics(optics_fraction, projected);
-        if (note && !optics_announced && elapsed >= std::min(1.0, st.note_after_seconds) &&
-            projected - elapsed > st.note_after_seconds) {
-            optics_announced = true;
-            note(cat(spec.name, ": about ", format_duration(projected), " for its particles' optics (Lorenz-Mie, ",
-                     spec.spectrum.wavelengths_nm().size(), " wavelengths)"));
-        }
-    };
-    MaterialOptics mo = material_optics(spec, st, optics_progress);
-    if (feedback.optics) feedback.optics(1.0, seconds_since(t0));
+    MaterialOptics mo = material_optics(spec, st, feedback);
     std::vector<SpectralOptics>& optics = mo.optics;
     std::vector<Rgb>& weights = mo.weights;
     out.wavelengths_interpolated = mo.wavelengths_interpolated;

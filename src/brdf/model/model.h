@@ -231,6 +231,12 @@ struct SolveFeedback {
 /// for most materials): the bar and its ETA then follow a large particle's minutes of Lorenz-Mie.
 SolveFeedback feedback_on(Progress& progress);
 
+/// material_optics with a user's feedback: the optics' fraction as they go, then 1 once done, and
+/// for a material whose optics will take over settings.note_after_seconds, the note of their
+/// estimate (SolveFeedback). solve_material's first step; `hiding` calls it alone.
+MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& settings,
+                               const SolveFeedback& feedback);
+
 /// Mie + mixing per wavelength, then every Fourier order of every wavelength in one batch on the
 /// device (or the CPU reference).
 SolvedMaterial solve_material(const material::MaterialSpec& spec, Device device);
