@@ -7,17 +7,12 @@
 
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/std_regex.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
-// GCC 12 with the sanitizers (build-asan) warns inside std::regex's automaton that a moved
-// std::function "may be used uninitialized": a false positive in libstdc++'s own code.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#include <regex>
-#pragma GCC diagnostic pop
 
 namespace brdf::formats {
 

@@ -9,6 +9,7 @@
 #include "spool_fixture.h"
 
 #include <brdf/core/log.h>
+#include <brdf/core/std_regex.h>
 
 #include <nlohmann/json.hpp>
 
@@ -17,7 +18,6 @@
 #include <map>
 #include <csignal>
 #include <cstdio>
-#include <regex>
 #include <set>
 #include <sys/stat.h>
 #include <thread>

@@ -4,6 +4,7 @@
 #include <brdf/core/atomic_file.h>
 #include <brdf/core/error.h>
 #include <brdf/core/log.h>
+#include <brdf/core/std_regex.h>
 #include <brdf/service/daemon.h>
 #include <brdf/service/spool.h>
 
@@ -16,7 +17,6 @@
 #include <future>
 #include <map>
 #include <mutex>
-#include <regex>
 #include <set>
 #include <stop_token>
 #include <sys/wait.h>
