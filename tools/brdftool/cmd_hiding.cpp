@@ -48,8 +48,8 @@ int run_hiding(const HidingFlags& f) {
     std::optional<Progress> progress(std::in_place, "hiding",
                                      std::vector<ProgressStage>{{"optics", 0.5}, {"solve", 0.5}}, &line);
     progress->stage("optics");
+    // (feedback_on moves the bar to "solve" once the optics are done)
     const model::MaterialOptics optics = model::material_optics(spec, settings, model::feedback_on(*progress));
-    progress->stage("solve");
     const int streams = settings.streams;
     const double steps = static_cast<double>(f.thickness_um.size() + 1);
     std::vector<std::pair<double, double>> rows;
