@@ -616,7 +616,7 @@ nlohmann::json hg_medium(double tolerance) {
 TEST(SpecLimits, DefaultsAndAbsentFromTheResolvedSpec) {
     const MaterialSpec s = load_specs(good("design_example.json")).at(0);
     EXPECT_EQ(s.limits.max_wavelengths, 2000u);
-    EXPECT_EQ(s.limits.max_size_parameter, 1e5);
+    EXPECT_EQ(s.limits.max_size_parameter, 5e4);
     EXPECT_EQ(s.limits.min_tolerance, 1e-8);
     EXPECT_EQ(s.limits.max_legendre_terms, 100000u);
     // Not written when not given: the hashes of existing specs do not change.
@@ -669,30 +669,50 @@ TEST(SpecLimits, MoreWavelengthsThanTheLimitNeedAnOverride) {
     EXPECT_EQ(parse_specs(doc, "doc.json").at(0).spectrum.size(), 1500u);
 }
 
+// One pigment of spheres of one radius in a binder of index 1.5, in RGB.
+nlohmann::json one_sphere_size(double radius_um) {
+    return {{"name", "p"},
+            {"binder", {{"index", 1.5}}},
+            {"pigments",
+             {{{"index", 2.0},
+               {"volume_fraction", 0.1},
+               {"size", {{"distribution", "monodisperse"}, {"radius_um", radius_um}}}}}},
+            {"spectrum", "rgb"}};
+}
+
 TEST(SpecLimits, SizeParameterAboveTheLimitNeedsAnOverride) {
-    nlohmann::json doc = {
-        {"name", "p"},
-        {"binder", {{"index", 1.5}}},
-        {"pigments",
-         {{{"index", 2.0},
-           {"volume_fraction", 0.1},
-           {"size", {{"distribution", "monodisperse"}, {"radius_um", 10000.0}}}}}},
-        {"spectrum", "rgb"}};
-    // x = 2 pi 10000 um 1.5 / 0.464 um = 203120 at the shortest wavelength of the rgb set.
+    nlohmann::json doc = one_sphere_size(1000.0);
+    doc["limits"] = {{"max_size_parameter", 1e4}};
+    // x = 2 pi 1000 um 1.5 / 0.464 um = 20312 at the shortest wavelength of the rgb set: above a
+    // lowered limit, below what the Mie module computes.
     EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }),
               "doc.json: pigments[0].size: size parameter x = 2 pi r_max n_binder / lambda reaches "
-              "203120 (r_max 1e+04 um, n_binder 1.5 at 464 nm), above the limit of 1e+05 (Mie "
+              "20312 (r_max 1000 um, n_binder 1.5 at 464 nm), above the limit of 10000 (Mie "
               "series need about x terms per radius); to override, set \"limits\": "
-              "{\"max_size_parameter\": 203121}");
-    doc["limits"] = {{"max_size_parameter", 3e5}};
+              "{\"max_size_parameter\": 20313}");
+    doc["limits"] = {{"max_size_parameter", 3e4}};
     EXPECT_NO_THROW(parse_specs(doc, "doc.json"));
     // The distribution's upper integration radius counts, not its effective radius.
-    doc.erase("limits");
-    doc["pigments"][0]["size"] = {{"distribution", "lognormal"}, {"r_g_um", 1000.0},
-                                  {"sigma_g", 2.0}};
-    EXPECT_NE(limit_error([&] { parse_specs(doc, "doc.json"); })
-                  .find("doc.json: pigments[0].size: size parameter"),
+    doc["pigments"][0]["size"] = {{"distribution", "lognormal"}, {"r_g_um", 8.0}, {"sigma_g", 2.0}};
+    EXPECT_NE(limit_error([&] { parse_specs(doc, "doc.json"); }).find("above the limit of 30000"),
               std::string::npos);
+}
+
+// Beyond the largest size parameter whose Legendre series the Mie module computes, the refusal
+// comes with the spec and offers no override: raising the limit would only move it to the optics.
+TEST(SpecLimits, SizeParameterAboveWhatMieComputesIsRefusedWithoutAnOverride) {
+    nlohmann::json doc = one_sphere_size(10000.0);
+    const std::string fixed =
+        "doc.json: pigments[0].size: size parameter x = 2 pi r_max n_binder / lambda reaches 203120 "
+        "(r_max 1e+04 um, n_binder 1.5 at 464 nm), above 50000, the largest this service computes (a "
+        "phase function's Legendre series needs about 2x terms per radius; a fixed limit)";
+    EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }), fixed);
+    doc["limits"] = {{"max_size_parameter", 3e5}};
+    EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }), fixed);
+    // Just below it the spec is accepted: 2450 um reaches x = 49,764.
+    doc.erase("limits");
+    doc["pigments"][0]["size"]["radius_um"] = 2450.0;
+    EXPECT_NO_THROW(parse_specs(doc, "doc.json"));
 }
 
 TEST(SpecLimits, LimitsAndInputFaultsTogetherAreOneInputError) {
@@ -724,9 +744,9 @@ TEST(SpecLimits, CheckedInSpecimens) {
     EXPECT_EQ(limit_error([&] { load_specs(path("spec_size_parameter.json")); }),
               path("spec_size_parameter.json") +
                   ": pigments[0].size: size parameter x = 2 pi r_max n_binder / lambda reaches "
-                  "124899 (r_max 5000 um, n_binder 1.511 at 380 nm), above the limit of 1e+05 (Mie "
-                  "series need about x terms per radius); to override, set \"limits\": "
-                  "{\"max_size_parameter\": 124900}");
+                  "124899 (r_max 5000 um, n_binder 1.511 at 380 nm), above 50000, the largest this "
+                  "service computes (a phase function's Legendre series needs about 2x terms per "
+                  "radius; a fixed limit)");
     EXPECT_EQ(limit_error([&] { load_specs(path("spec_tolerance_below_limit.json")); }),
               path("spec_tolerance_below_limit.json") +
                   ": accuracy.tolerance: 1e-09 is below the limit of 1e-08 (the solver's "
@@ -1061,9 +1081,9 @@ TEST(SpecStacks, TheSizeParameterLimitAppliesToEveryLayer) {
     const nlohmann::json doc = {{"name", "p"}, {"layers", {top, big}}, {"spectrum", "rgb"}};
     EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }),
               "doc.json: layers[1].pigments[1].size: size parameter x = 2 pi r_max n_binder / "
-              "lambda reaches 203120 (r_max 1e+04 um, n_binder 1.5 at 464 nm), above the limit of "
-              "1e+05 (Mie series need about x terms per radius); to override, set \"limits\": "
-              "{\"max_size_parameter\": 203121}");
+              "lambda reaches 203120 (r_max 1e+04 um, n_binder 1.5 at 464 nm), above 50000, the "
+              "largest this service computes (a phase function's Legendre series needs about 2x "
+              "terms per radius; a fixed limit)");
 }
 
 TEST(SpecSurface, NamedFinishesAndRoughness) {

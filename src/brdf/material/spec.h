@@ -165,8 +165,10 @@ struct SpecLimits {
     /// Most wavelengths in the spectrum (an explicit list); the solve is linear in the count.
     std::size_t max_wavelengths = 2000;
     /// Largest Mie size parameter x = 2 pi r_max n_binder / lambda of any pigment at any wavelength
-    /// (r_max: the size distribution's upper integration radius); Mie series need ~x terms.
-    double max_size_parameter = 1e5;
+    /// (r_max: the size distribution's upper integration radius); Mie series need ~x terms. The
+    /// default is the most the Mie module computes (mie::max_legendre_size_parameter), which no
+    /// limit raises: a spec lowers it to refuse particles whose optics take long.
+    double max_size_parameter = 5e4;
     /// Smallest accuracy tolerance (relative BRDF error); below 1e-8 double precision runs out.
     double min_tolerance = 1e-8;
     /// Longest Legendre series of a phase function (terms beta_0 .. beta_{L-1}).
