@@ -703,9 +703,10 @@ TEST(SpecLimits, SizeParameterAboveTheLimitNeedsAnOverride) {
 TEST(SpecLimits, SizeParameterAboveWhatMieComputesIsRefusedWithoutAnOverride) {
     nlohmann::json doc = one_sphere_size(10000.0);
     const std::string fixed =
-        "doc.json: pigments[0].size: size parameter x = 2 pi r_max n_binder / lambda reaches 203120 "
-        "(r_max 1e+04 um, n_binder 1.5 at 464 nm), above 50000, the largest this service computes (a "
-        "phase function's Legendre series needs about 2x terms per radius; a fixed limit)";
+        "doc.json: pigments[0].size: size parameter x = 2 pi r_max n_binder / lambda reaches "
+        "203120 (r_max 1e+04 um, n_binder 1.5 at 464 nm), above 50000, the largest this service "
+        "computes (a phase function's Legendre series needs about 2x terms per radius; a fixed "
+        "limit)";
     EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }), fixed);
     doc["limits"] = {{"max_size_parameter", 3e5}};
     EXPECT_EQ(limit_error([&] { parse_specs(doc, "doc.json"); }), fixed);

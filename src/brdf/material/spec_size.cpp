@@ -114,21 +114,24 @@ void MaterialParser::check_size_parameters(const SpectralSet& spectrum) {
                 if (x > x_max) x_max = x, n_at = n, lambda_at = lambda;
             }
             const std::string reaches =
-                cat("size parameter x = 2 pi r_max n_binder / lambda reaches ", std::round(x_max), " (r_max ",
-                    digits4(r_max), " um, n_binder ", digits4(n_at), " at ", lambda_at, " nm), above ");
+                cat("size parameter x = 2 pi r_max n_binder / lambda reaches ", std::round(x_max),
+                    " (r_max ", digits4(r_max), " um, n_binder ", digits4(n_at), " at ", lambda_at,
+                    " nm), above ");
             const std::string size_path = key_path(elem_path(m_layer_paths[k].pigments, i), "size");
             // Beyond what the Mie module computes no limit helps: said here, before any optics, and
             // without an override that would only move the refusal to the Mie stage.
             if (x_max > mie::max_legendre_size_parameter)
-                c.fail_limit(size_path,
-                             cat(reaches, shortest(mie::max_legendre_size_parameter),
-                                 ", the largest this service computes (a phase function's Legendre series "
-                                 "needs about 2x terms per radius; a fixed limit)"));
+                c.fail_limit(
+                    size_path,
+                    cat(reaches, shortest(mie::max_legendre_size_parameter),
+                        ", the largest this service computes (a phase function's Legendre series "
+                        "needs about 2x terms per radius; a fixed limit)"));
             else if (x_max > m_limits.max_size_parameter)
-                c.fail_limit(size_path, cat(reaches, "the limit of ", shortest(m_limits.max_size_parameter),
-                                            " (Mie series need about x terms per radius); to override, set "
-                                            "\"limits\": {\"max_size_parameter\": ",
-                                            std::ceil(x_max), "}"));
+                c.fail_limit(size_path,
+                             cat(reaches, "the limit of ", shortest(m_limits.max_size_parameter),
+                                 " (Mie series need about x terms per radius); to override, set "
+                                 "\"limits\": {\"max_size_parameter\": ",
+                                 std::ceil(x_max), "}"));
         }
     }
 }
