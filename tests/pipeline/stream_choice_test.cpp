@@ -307,5 +307,33 @@ TEST(StreamChoice, TheOpticsReportTheirProgressAndALongOneItsEstimate) {
     EXPECT_EQ(calls[0].first, 1.0);
 }
 
+// A large particle's first wavelength can run for minutes before any estimate exists: while none is
+// done and it has run past settings.note_after_seconds (half a second at least), the note says so.
+// Silica r_eff 100 um in acrylic at "draft", two wavelengths: each takes seconds here. The radius
+// carries a run's own billionths of a micrometre, so that no earlier run's ensembles on disk
+// (the test cache folder) finish it at once.
+TEST(StreamChoice, ALongFirstWavelengthIsSaidBeforeAnyEstimate) {
+    const auto ns = std::chrono::steady_clock::now().time_since_epoch().count();
+    nlohmann::json j = nlohmann::json::parse(R"({"binder": {"material": "pmma"},
+        "spectrum": {"wavelengths_nm": [383, 397]},
+        "pigments": [{"material": "silica", "volume_fraction": 0.05,
+                      "size": {"distribution": "gamma", "r_eff_um": 100, "v_eff": 0.1}}]})");
+    j["pigments"][0]["size"]["r_eff_um"] = 100.0 + 1e-9 * static_cast<double>(ns % 1000000);
+    const auto spec = spec_of(j.dump().c_str(), "draft");
+    model::NumericalSettings st = model::settings_for(spec.accuracy.tolerance);
+    st.note_after_seconds = 0.0;
+    std::vector<std::string> notes;
+    model::SolveFeedback feedback;
+    feedback.note = [&notes](const std::string& text) { notes.push_back(text); };
+    model::material_optics(spec, st, feedback);
+    ASSERT_FALSE(notes.empty());
+    const std::string lead = "streams: its particles' optics take long: the first of its 2 wavelengths "
+                             "(Lorenz-Mie) is still running after ";
+    EXPECT_EQ(notes[0].rfind(lead, 0), 0u) << notes[0];
+    const std::string tail = "; an estimate follows once one is done";
+    ASSERT_GT(notes[0].size(), lead.size() + tail.size());
+    EXPECT_EQ(notes[0].substr(notes[0].size() - tail.size()), tail) << notes[0];
+}
+
 } // namespace
 } // namespace brdf::test

@@ -571,13 +571,21 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
         WorkProjection projection(std::move(costs), threads);
         std::mutex progress_mutex;
         const auto t0 = std::chrono::steady_clock::now();
+        // Also while a wavelength's Lorenz-Mie integration runs (after each of its refinements): a
+        // large particle's first wavelengths take minutes before any is done.
+        const std::function<void()> heartbeat = [&] {
+            const std::lock_guard lock(progress_mutex);
+            const double now = seconds_since(t0);
+            progress(now, projection.projected_total(now));
+        };
         // Wavelengths are independent: split them over the cores.
         parallel_for(static_cast<int>(wavelengths.size()), threads, [&](int k) {
             if (progress) {
                 const std::lock_guard lock(progress_mutex);
                 projection.start(static_cast<std::size_t>(k), seconds_since(t0));
             }
-            optics[k] = spectral_optics(spec, wavelengths[k], st.mie_tolerance);
+            optics[k] = spectral_optics(spec, wavelengths[k], st.mie_tolerance, 0,
+                                        progress ? heartbeat : std::function<void()>());
             if (!progress) return;
             const std::lock_guard lock(progress_mutex);
             const double now = seconds_since(t0);
@@ -650,8 +658,21 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
     const auto t0 = std::chrono::steady_clock::now();
     bool announced = false;
     double fraction = 0.0; // never back, and 1 only once they are all done
+    bool running_noted = false;
     const auto progress = [&](double elapsed, double projected) {
-        if (!(projected > 0.0)) return;
+        if (!(projected > 0.0)) {
+            // None done yet: a first wavelength that runs this long makes them all long. Said with
+            // what is known (the estimate follows once one is done); half a second at least, far
+            // beyond any small particle's wavelength.
+            if (feedback.note && !running_noted && elapsed >= std::max(0.5, st.note_after_seconds)) {
+                running_noted = true;
+                feedback.note(cat(spec.name, ": its particles' optics take long: the first of its ",
+                                  spec.spectrum.wavelengths_nm().size(),
+                                  " wavelengths (Lorenz-Mie) is still running after ", format_duration(elapsed),
+                                  "; an estimate follows once one is done"));
+            }
+            return;
+        }
         fraction = std::max(fraction, std::min(elapsed / projected, 0.999));
         if (feedback.optics) feedback.optics(fraction, projected);
         if (feedback.note && !announced && elapsed >= std::min(1.0, st.note_after_seconds) &&
@@ -662,7 +683,9 @@ MaterialOptics material_optics(const material::MaterialSpec& spec, const Numeric
                               " wavelengths)"));
         }
     };
-    MaterialOptics out = material_optics(spec, st, progress);
+    // Without anyone to tell, no progress calls.
+    MaterialOptics out =
+        material_optics(spec, st, feedback.optics || feedback.note ? OpticsProgress(progress) : OpticsProgress());
     if (feedback.optics) feedback.optics(1.0, seconds_since(t0));
     return out;
 }

@@ -175,10 +175,12 @@ struct MaterialOptics {
 };
 /// material_optics' progress: the seconds its optics have taken, and the seconds they are projected
 /// to take in all (WorkProjection: each wavelength's expected cost 1 / lambda^2, as the Lorenz-Mie
-/// series' terms and its angles both grow with the size parameter).
+/// series' terms and its angles both grow with the size parameter); negative while no wavelength
+/// is done.
 using OpticsProgress = std::function<void(double elapsed_seconds, double projected_seconds)>;
-/// `progress`, when given, is called as each wavelength's optics are done (from the threads that
-/// compute them, one call at a time). An analytic material has no such work and makes no call.
+/// `progress`, when given, is called as each wavelength's optics are done, and while a long
+/// Lorenz-Mie integration runs (after each of its refinements), from the threads that compute them,
+/// one call at a time. An analytic material has no such work and makes no call.
 MaterialOptics material_optics(const material::MaterialSpec& spec, const NumericalSettings& settings,
                                const OpticsProgress& progress = {});
 
@@ -214,7 +216,10 @@ struct SolveFeedback {
     /// What a user should know before a long part, once per part: for a material whose particles'
     /// optics (Lorenz-Mie) will take over settings.note_after_seconds, their estimate once the
     /// first wavelengths are done (their time scaled by the expected cost of the rest), e.g.
-    /// "NAME: about 3 min 20 s for its particles' optics (Lorenz-Mie, 41 wavelengths)"; for one
+    /// "NAME: about 3 min 20 s for its particles' optics (Lorenz-Mie, 41 wavelengths)", and before
+    /// that, where the first wavelength alone runs that long (at least half a second), "NAME: its
+    /// particles' optics take long: the first of its 41 wavelengths (Lorenz-Mie) is still running
+    /// after 10.0 s; an estimate follows once one is done"; for one
     /// whose solve and tables will, the estimate from the stream check's own solves of the hardest
     /// samples, scaled to all samples and cores, e.g. "NAME: about 2 min 10 s to solve and
     /// tabulate (41 samples at 64 streams)". compute shows them as lines of their own.

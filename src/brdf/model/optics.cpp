@@ -23,12 +23,13 @@ LayerOptics analytic_layer_optics(const material::MediumSpec& m, int channel, do
 } // namespace
 
 LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wavelength_nm, double mie_tolerance,
-                                     const std::string& who) {
+                                     const std::string& who, const std::function<void()>& heartbeat) {
     if (!layer.binder) throw InputError(cat(who, ": particulate optics need a binder"));
     LayerOptics out;
     out.index = layer.binder->index.model.at(wavelength_nm).n;
     mie::EnsembleOptions options;
     options.tolerance = std::clamp(mie_tolerance, 1e-8, 0.1);
+    if (heartbeat) options.progress = [&heartbeat](double) { heartbeat(); };
 
     // sigma_s = sum_i N_i Csca_i, sigma_e = sum_i N_i Cext_i + (1 - f) kappa_binder, and the mixed
     // phase function weights each pigment's by its scattering N_i Csca_i.
@@ -83,13 +84,14 @@ LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wa
 }
 
 SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, double mie_tolerance,
-                               int substrate_channel) {
+                               int substrate_channel, const std::function<void()>& heartbeat) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     SpectralOptics out;
     out.wavelength_nm = wavelength_nm;
     for (const material::LayerSpec& layer : spec.layers)
         out.layers.push_back(layer.medium ? analytic_layer_optics(*layer.medium, 0, 1e-3 * mie_tolerance)
-                                          : particulate_layer_optics(layer, wavelength_nm, mie_tolerance, who));
+                                          : particulate_layer_optics(layer, wavelength_nm, mie_tolerance, who,
+                                                                     heartbeat));
     if (spec.substrate) out.substrate_albedo = spec.substrate->albedo[static_cast<std::size_t>(substrate_channel)];
     return out;
 }

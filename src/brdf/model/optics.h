@@ -10,7 +10,9 @@
 #include <brdf/rte/phase.h>
 #include <brdf/rte/stack.h>
 
+#include <functional>
 #include <limits>
+#include <string>
 #include <vector>
 
 namespace brdf::model {
@@ -45,15 +47,17 @@ struct SpectralOptics {
 };
 
 /// The optics of one layer of particles in a binder (or a clear binder film) at one wavelength.
-/// thickness_um absent: semi-infinite.
+/// thickness_um absent: semi-infinite. `heartbeat`, when given, is called while a long Lorenz-Mie
+/// integration runs (mie::EnsembleOptions::progress), from this thread; it must not throw.
 LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wavelength_nm, double mie_tolerance,
-                                     const std::string& who);
+                                     const std::string& who, const std::function<void()>& heartbeat = {});
 
 /// Every layer of a spec at one wavelength of its spectrum. An analytic medium layer in such a stack
 /// takes its grey albedo (the spec refuses coloured ones there: solve_material); the substrate's
-/// albedo is that of `substrate_channel` (0, 1, 2; all equal for a grey substrate).
+/// albedo is that of `substrate_channel` (0, 1, 2; all equal for a grey substrate). `heartbeat`:
+/// as particulate_layer_optics'.
 SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, double mie_tolerance,
-                               int substrate_channel = 0);
+                               int substrate_channel = 0, const std::function<void()>& heartbeat = {});
 
 /// Every layer of a spec made only of analytic media, for colour channel c (0, 1, 2).
 SpectralOptics analytic_optics(const material::MaterialSpec& spec, int channel, double order_tolerance);
