@@ -309,10 +309,12 @@ TEST(StreamChoice, TheOpticsReportTheirProgressAndALongOneItsEstimate) {
 
 // A large particle's first wavelength can run for minutes before any estimate exists: while none is
 // done and it has run past settings.note_after_seconds (half a second at least), the note says so.
-// Silica r_eff 100 um in acrylic at "draft", two wavelengths: each takes seconds here. The radius
-// carries a run's own billionths of a micrometre, so that no earlier run's ensembles on disk
-// (the test cache folder) finish it at once.
+// Silica r_eff 100 um in acrylic at "draft", two wavelengths: each takes seconds here. No ensemble
+// on disk may finish it at once: the process keeps none (where this test starts its cache), and
+// the radius carries a run's own billionths of a micrometre (where an earlier test in the same
+// process has started the cache with the test cache folder).
 TEST(StreamChoice, ALongFirstWavelengthIsSaidBeforeAnyEstimate) {
+    const ScopedEnv no_disk_cache("BRDF_CACHE_DIR", "off");
     const auto ns = std::chrono::steady_clock::now().time_since_epoch().count();
     nlohmann::json j = nlohmann::json::parse(R"({"binder": {"material": "pmma"},
         "spectrum": {"wavelengths_nm": [383, 397]},
