@@ -34,8 +34,14 @@ BrdfTable::BrdfTable() {
         if (cell_below_horizon(cell)) set_no_data(cell);
 }
 
-BrdfTable::BrdfTable(Unwritten) {
-    for (auto& plane : channels) plane.resize(cells);
+BrdfTable::BrdfTable(Unwritten, bool grey_table) : grey(grey_table) {
+    for (int c = 0; c < (grey ? 1 : 3); ++c) channels[c].resize(cells);
+}
+
+void BrdfTable::make_full() {
+    if (!grey) return;
+    channels[1] = channels[2] = channels[0];
+    grey = false;
 }
 
 std::size_t BrdfTable::data_cells() const {
@@ -83,8 +89,8 @@ struct CellCheck {
 };
 
 CellCheck cell_check(const BrdfTable& table) {
-    return {below_horizon_mask().data(), table.channels[0].data(), table.channels[1].data(),
-            table.channels[2].data()};
+    return {below_horizon_mask().data(), table.plane(0).data(), table.plane(1).data(),
+            table.plane(2).data()};
 }
 
 // The first cell that breaks the invariants, or `cells`: blocks of cells counted (a vectorised
@@ -104,10 +110,13 @@ std::size_t first_bad_cell(const BrdfTable& table) {
 } // namespace
 
 void check_channel_sizes(const BrdfTable& table, std::string_view what) {
-    for (int c = 0; c < 3; ++c)
-        if (table.channels[c].size() != cells)
+    for (int c = 0; c < 3; ++c) {
+        const std::size_t expected = table.grey && c > 0 ? 0 : cells;
+        if (table.channels[c].size() != expected)
             throw NumericalError(cat(what, ": the ", channel_name(c), " channel holds ",
-                                     table.channels[c].size(), " values (", cells, " expected)"));
+                                     table.channels[c].size(), " values (", expected, " expected",
+                                     table.grey ? " in a grey table" : "", ")"));
+    }
 }
 
 bool cells_pass_check(const BrdfTable& table, std::size_t first, std::size_t end) {

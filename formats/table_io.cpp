@@ -262,7 +262,7 @@ TableStats table_stats(const BrdfTable& table) {
         if (!table.has_data(cell)) continue;
         ++stats.data_cells;
         for (int c = 0; c < 3; ++c) {
-            const double v = table.channels[c][cell];
+            const double v = table.plane(c)[cell];
             stats.channels[c].min = std::min(stats.channels[c].min, v);
             stats.channels[c].max = std::max(stats.channels[c].max, v);
             sum[c] += v;
@@ -292,7 +292,7 @@ TableDiff diff(const BrdfTable& a, const BrdfTable& b, double floor) {
         if (!in_a || !in_b) continue;
         ++d.compared_cells;
         for (int c = 0; c < 3; ++c) {
-            const double va = a.channels[c][cell], vb = b.channels[c][cell];
+            const double va = a.plane(c)[cell], vb = b.plane(c)[cell];
             const double rel = std::abs(va - vb) / std::max(std::abs(vb), floor);
             if (rel > d.channels[c].max) {
                 d.channels[c].max = rel;

@@ -125,7 +125,8 @@ static double8 smith_lambda(int lobe, double alpha, double8 mu, double8 s) {
 
 // The three channels' planes are separate buffers: the host's table planes themselves on a CPU
 // device (cl_table_fill.cpp maps them with CL_MEM_USE_HOST_PTR); so is `orders`, the grid of
-// Fourier orders (FillInputs::fourier), there.
+// Fourier orders (FillInputs::fourier), there. A grey fill (channels 1) writes `red` alone, the
+// grey table's one plane (formats/table.h).
 __kernel void table_fill(__global const FillParams* params_in, __global const double* data,
                          __global const double* orders, __global double* red, __global double* green,
                          __global double* blue) {
@@ -346,6 +347,7 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
     for (int l = 0; l < TF_LANES; ++l) {
         if (!lane_valid[l]) continue;
         red[cell[l]] = red[mirror[l]] = r[l];
+        if (p.channels == 1) continue; // a grey table: red stands for all three (green, blue are red)
         green[cell[l]] = green[mirror[l]] = g[l];
         blue[cell[l]] = blue[mirror[l]] = b[l];
     }

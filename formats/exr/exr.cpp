@@ -133,7 +133,7 @@ void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
                   "\" (rec709, acescg, rec2020): no chromaticities attribute written");
     std::vector<detail::PlaneSource> sources;
     // Rounded to float32 as the blocks are made; no data (-1) and cells below the horizon are 0.
-    for (int c = 0; c < 3; ++c) sources.push_back({channel_names[c], nullptr, table.channels[c].data()});
+    for (int c = 0; c < 3; ++c) sources.push_back({channel_names[c], nullptr, table.plane(c).data()});
     // Each block's cells are checked as it is compressed (in cache then, where a pass of its own
     // read the 35 MB table once more): check_table names the first bad cell of a table that fails.
     std::atomic<std::size_t> no_data_above_horizon{0};
@@ -142,7 +142,7 @@ void write_exr(const std::filesystem::path& path, const BrdfTable& table) {
         if (!cells_pass_check(table, first, end)) check_table(table, display(path));
         std::size_t none = 0;
         for (std::size_t cell = first; cell < end; ++cell)
-            none += (below[cell] == 0) & (table.channels[0][cell] == BrdfTable::no_data);
+            none += (below[cell] == 0) & (table.plane(0)[cell] == BrdfTable::no_data);
         no_data_above_horizon += none;
     };
     detail::write_zip_table(path, sources,

@@ -63,9 +63,9 @@ double pick(bool keep, double value, double otherwise) {
 // (below the horizon, or -1 in the table).
 void to_merl_units(const BrdfTable& table, const std::uint8_t* below, std::size_t first, std::size_t count,
                    double* out, std::size_t stride) {
-    const double* __restrict r = table.channels[0].data() + first;
-    const double* __restrict g = table.channels[1].data() + first;
-    const double* __restrict b = table.channels[2].data() + first;
+    const double* __restrict r = table.plane(0).data() + first;
+    const double* __restrict g = table.plane(1).data() + first;
+    const double* __restrict b = table.plane(2).data() + first;
     const std::uint8_t* __restrict under = below + first;
     double* __restrict out_r = out;
     double* __restrict out_g = out + stride;

@@ -527,6 +527,29 @@ TEST(ExrWrite, TheSameTableIsWrittenAsTheSameBytesEveryTime) {
     }
 }
 
+// A grey table (one plane standing for three, a grey medium's fill) is written as the same bytes,
+// MERL and OpenEXR, as the table of three equal planes, and read back as that table.
+TEST(TableWrite, AGreyTableIsWrittenAsItsThreeEqualPlanes) {
+    TempDir dir;
+    BrdfTable grey(BrdfTable::Unwritten{}, true);
+    grey.channels[0] = test::analytic_table().channels[0];
+    grey.channels[0][cell_index(20, 30, 40)] = BrdfTable::no_data; // a no-data cell above the horizon
+    BrdfTable full = grey;
+    full.make_full();
+    ASSERT_TRUE(grey.grey);
+    ASSERT_FALSE(full.grey);
+    write_merl(dir / "grey.binary", grey);
+    write_merl(dir / "full.binary", full);
+    EXPECT_TRUE(test::read_file(dir / "grey.binary") == test::read_file(dir / "full.binary"));
+    write_exr(dir / "grey.exr", grey);
+    write_exr(dir / "full.exr", full);
+    EXPECT_TRUE(test::read_file(dir / "grey.exr") == test::read_file(dir / "full.exr"));
+    const BrdfTable back = read_merl(dir / "grey.binary");
+    EXPECT_FALSE(back.grey);
+    EXPECT_FALSE(back.has_data(cell_index(20, 30, 40)));
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(back.channels[c].size(), cells);
+}
+
 TEST(ExrWrite, BadTableIsRefusedAndNothingIsLeftBehind) {
     TempDir dir;
     BrdfTable t;

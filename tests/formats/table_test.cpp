@@ -43,6 +43,54 @@ TEST(BrdfTable, HasDataNeedsAllThreeChannels) {
     EXPECT_EQ(t.at(cell), (Rgb{-1.0, -1.0, -1.0}));
 }
 
+// A grey table (a grey medium's fill) holds the red plane alone, which stands for all three.
+BrdfTable grey_analytic_table() {
+    BrdfTable grey(BrdfTable::Unwritten{}, true);
+    grey.channels[0] = test::analytic_table().channels[0];
+    return grey;
+}
+
+TEST(BrdfTable, AGreyTableReadsItsOnePlaneInEveryChannel) {
+    BrdfTable grey = grey_analytic_table();
+    EXPECT_TRUE(grey.grey);
+    EXPECT_EQ(grey.channels[0].size(), cells);
+    EXPECT_TRUE(grey.channels[1].empty() && grey.channels[2].empty());
+    const TablePlane& red = test::analytic_table().channels[0];
+    const std::size_t cell = cell_index(12, 34, 56), below = cell_index(89, 89, 0);
+    EXPECT_EQ(grey.at(cell), (Rgb{red[cell], red[cell], red[cell]}));
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(&grey.plane(c), &grey.channels[0]);
+    EXPECT_TRUE(grey.has_data(cell));
+    EXPECT_FALSE(grey.has_data(below));
+    EXPECT_EQ(grey.data_cells(), cells - below_horizon_cells);
+    EXPECT_NO_THROW(check_table(grey, "grey"));
+    // Setting a cell keeps the red value alone; made full, the table holds three equal planes.
+    grey.set(cell, {0.5, 0.5, 0.5});
+    EXPECT_EQ(grey.at(cell), (Rgb{0.5, 0.5, 0.5}));
+    grey.make_full();
+    EXPECT_FALSE(grey.grey);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(grey.channels[c], grey.channels[0]) << c;
+    EXPECT_EQ(grey.at(cell), (Rgb{0.5, 0.5, 0.5}));
+    grey.set(cell, {0.5, 0.25, 0.125});
+    EXPECT_EQ(grey.at(cell), (Rgb{0.5, 0.25, 0.125}));
+}
+
+TEST(CheckTable, AGreyTableHoldsOnePlaneOfEveryCell) {
+    BrdfTable grey = grey_analytic_table();
+    grey.channels[0][cell_index(3, 4, 5)] = -0.5;
+    EXPECT_THROW_MESSAGE(
+        check_table(grey, "g"), NumericalError,
+        "g: red value -0.5 at cell theta_h 3, theta_d 4, phi_d 5 (a BRDF must be finite and >= 0, "
+        "or -1 in all three channels for no data)");
+    grey = grey_analytic_table();
+    grey.channels[2].resize(cells);
+    EXPECT_THROW_MESSAGE(check_table(grey, "g"), NumericalError,
+                         "g: the blue channel holds 1458000 values (0 expected in a grey table)");
+    grey = grey_analytic_table();
+    grey.channels[0].resize(cells - 1);
+    EXPECT_THROW_MESSAGE(check_table(grey, "g"), NumericalError,
+                         "g: the red channel holds 1457999 values (1458000 expected in a grey table)");
+}
+
 TEST(Tabulate, EvaluatesEveryCellAboveTheHorizonAtItsBinCentre) {
     std::size_t calls = 0;
     const BrdfTable t = tabulate([&](const CellCentre& c) {

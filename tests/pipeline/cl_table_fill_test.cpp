@@ -53,7 +53,7 @@ void compare_tables(const formats::BrdfTable& device, const formats::BrdfTable& 
         const bool no_data = formats::cell_below_horizon(cell);
         below += no_data;
         for (int c = 0; c < 3; ++c) {
-            const double d = device.channels[c][cell], r = reference.channels[c][cell];
+            const double d = device.plane(c)[cell], r = reference.plane(c)[cell];
             if (no_data) {
                 if (d != formats::BrdfTable::no_data || r != formats::BrdfTable::no_data) ++horizon_mismatch;
                 continue;
@@ -98,9 +98,10 @@ TEST_F(ClTableFill, AnalyticMediumMatchesReference) {
     compare_tables(model::fill_table_opencl(in), model::fill_table_reference(in, 2));
 }
 
-// A grey medium is filled in one channel (FillInputs::channels 1): the same table, bit for bit, as
-// the three-channel fill of the same inputs, on the device and in the C++ reference, with orders,
-// single scattering and a rough top's lobe.
+// A grey medium is filled in one channel (FillInputs::channels 1) into a grey table (one plane,
+// formats/table.h): the same values, bit for bit, as the three-channel fill of the same inputs, on
+// the device, in the C++ lanes and in the C++ reference, with orders, single scattering and a rough
+// top's lobe.
 model::FillInputs three_channels(const model::FillInputs& grey) {
     model::FillInputs in = grey;
     in.channels = 3;
@@ -114,8 +115,18 @@ model::FillInputs three_channels(const model::FillInputs& grey) {
     return in;
 }
 
+// The same planes, bit for bit (a grey table's one plane).
 void expect_identical(const formats::BrdfTable& a, const formats::BrdfTable& b) {
+    EXPECT_EQ(a.grey, b.grey);
     for (int c = 0; c < 3; ++c) EXPECT_EQ(a.channels[c], b.channels[c]) << "channel " << c;
+}
+
+void expect_grey_and_identical(const formats::BrdfTable& grey, const formats::BrdfTable& wide) {
+    EXPECT_TRUE(grey.grey);
+    EXPECT_TRUE(grey.channels[1].empty() && grey.channels[2].empty()) << "a grey table holds one plane";
+    EXPECT_FALSE(wide.grey);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(grey.plane(c), wide.channels[c]) << "channel " << c;
+    EXPECT_NO_THROW(formats::check_table(grey, "the grey table"));
 }
 
 TEST_F(ClTableFill, GreyMediumIsFilledInOneChannel) {
@@ -128,11 +139,13 @@ TEST_F(ClTableFill, GreyMediumIsFilledInOneChannel) {
         ASSERT_EQ(in.channels, 1);
         const model::FillInputs wide = three_channels(in);
         const formats::BrdfTable grey_device = model::fill_table_opencl(in);
-        expect_identical(grey_device, model::fill_table_opencl(wide));
+        expect_grey_and_identical(grey_device, model::fill_table_opencl(wide));
         const formats::BrdfTable grey_reference = model::fill_table_reference(in, 2);
-        expect_identical(grey_reference, model::fill_table_reference(wide, 2));
+        expect_grey_and_identical(grey_reference, model::fill_table_reference(wide, 2));
+        const formats::BrdfTable grey_lanes = model::fill_table_cpu(in, 2);
+        expect_grey_and_identical(grey_lanes, model::fill_table_cpu(wide, 2));
+        EXPECT_EQ(grey_lanes.channels[0], grey_reference.channels[0]);
         compare_tables(grey_device, grey_reference, 1e-11);
-        EXPECT_EQ(grey_device.channels[0], grey_device.channels[2]);
     }
     // A coloured medium keeps its three channels.
     EXPECT_EQ(model::prepare_fill(model::solve_material(spec_from(hg_medium), model::Device::Cpu)).channels, 3);

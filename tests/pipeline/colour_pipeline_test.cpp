@@ -112,7 +112,7 @@ TEST(PipelineColour, NoNegativeValueInAnyOutputOfTheMixture) {
     std::size_t negative = 0;
     for (std::size_t cell = 0; cell < formats::cells; ++cell)
         if (!formats::cell_below_horizon(cell))
-            for (int c = 0; c < 3; ++c) negative += table.channels[c][cell] < 0.0;
+            for (int c = 0; c < 3; ++c) negative += table.plane(c)[cell] < 0.0;
     EXPECT_EQ(negative, 0u);
     // The blue table channel is not simply zeroed: the fit keeps a positive blue where it was.
     EXPECT_GT(rec.albedo(0.0)[2], 0.0);

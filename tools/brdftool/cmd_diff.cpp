@@ -135,8 +135,8 @@ int run_diff(const DiffFlags& f) {
                                {"theta_h_deg", deg[0]},
                                {"theta_d_deg", deg[1]},
                                {"phi_d_deg", deg[2]},
-                               {"a", a.channels[c][ch.max_cell]},
-                               {"b", b.channels[c][ch.max_cell]}};
+                               {"a", a.plane(c)[ch.max_cell]},
+                               {"b", b.plane(c)[ch.max_cell]}};
             } else {
                 j["max_at"] = nullptr;
             }
@@ -175,7 +175,7 @@ int run_diff(const DiffFlags& f) {
         std::snprintf(angles, sizeof angles, "(%.3f, %.3f, %.3f)", deg[0], deg[1], deg[2]);
         std::snprintf(line, sizeof line, "  %-7s %11.4g %12.4g %12.4g   %-36s %12.6g %12.6g\n",
                       formats::channel_name(c), ch.max, ch.mean, ch.rms, angles,
-                      a.channels[c][ch.max_cell], b.channels[c][ch.max_cell]);
+                      a.plane(c)[ch.max_cell], b.plane(c)[ch.max_cell]);
         os << line;
     }
     std::cout << os.str();

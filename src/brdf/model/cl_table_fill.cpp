@@ -1,5 +1,6 @@
 // Host side of kernels/table_fill.cl: packs FillInputs' arrays into one buffer of doubles, runs one
-// work-item per TF_LANES cells and reads the three channel planes straight into a formats::BrdfTable.
+// work-item per TF_LANES cells and reads the three channel planes (a grey table's one) straight into
+// a formats::BrdfTable.
 
 #include <brdf/model/cl_table_fill.h>
 
@@ -159,11 +160,15 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     brdf::cl::check(err, "OpenCL table fill: create buffer orders");
     // The kernel writes the table's planes in place where the device can (PoCL on the CPU: no
     // 35 MB device buffer to fault in, nor a copy back); a GPU copies them at the map below. The
-    // kernel writes every cell, below the horizon too: the planes start unwritten.
-    formats::BrdfTable table(formats::BrdfTable::Unwritten{});
+    // kernel writes every cell, below the horizon too: the planes start unwritten. A grey fill
+    // (one channel) makes a grey table, whose one plane the kernel writes (its green and blue
+    // arguments are that plane too, never written).
+    const bool grey = in.channels == 1;
+    formats::BrdfTable table(formats::BrdfTable::Unwritten{}, grey);
     const std::size_t plane = formats::cells * sizeof(double);
+    const int planes = grey ? 1 : 3;
     std::array<::cl::Buffer, 3> out_bufs;
-    for (int c = 0; c < 3; ++c) {
+    for (int c = 0; c < planes; ++c) {
         out_bufs[c] = ::cl::Buffer(context, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, plane, table.channels[c].data(),
                                    &err);
         brdf::cl::check(err, "OpenCL table fill: create buffer output");
@@ -172,7 +177,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     brdf::cl::check(kernel.setArg(1, data_buf), "OpenCL table fill: set argument inputs");
     brdf::cl::check(kernel.setArg(2, fourier_buf), "OpenCL table fill: set argument orders");
     for (int c = 0; c < 3; ++c)
-        brdf::cl::check(kernel.setArg(3 + c, out_bufs[c]), "OpenCL table fill: set argument output");
+        brdf::cl::check(kernel.setArg(3 + c, out_bufs[grey ? 0 : c]), "OpenCL table fill: set argument output");
 
     // A work item per TF_LANES cells of the first phi_d half (each writes their mirrors too); the
     // global size is rounded up to a multiple of the local size, and the kernel ignores cells past
@@ -185,7 +190,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
                     "OpenCL table fill: run table_fill");
     // Mapping a CL_MEM_USE_HOST_PTR buffer makes the host's memory hold the kernel's results (the
     // pointer returned is the host's own).
-    for (int c = 0; c < 3; ++c) {
+    for (int c = 0; c < planes; ++c) {
         void* mapped = queue.enqueueMapBuffer(out_bufs[c], CL_TRUE, CL_MAP_READ, 0, plane, nullptr, nullptr, &err);
         brdf::cl::check(err, "OpenCL table fill: map output");
         if (mapped != table.channels[c].data())

@@ -677,7 +677,8 @@ Rgb fill_value_from_cosines(const FillInputs& in, double mu_i, double mu_o, doub
 }
 
 formats::BrdfTable fill_table_reference(const FillInputs& in, int threads) {
-    formats::BrdfTable table(formats::BrdfTable::Unwritten{}); // every cell is written below
+    // Every cell is written below; a grey fill (one channel) makes a grey table.
+    formats::BrdfTable table(formats::BrdfTable::Unwritten{}, in.channels == 1);
     // Half the cells, each copied to its mirror phi_d -> pi - phi_d (bin k -> 179 - k): reflecting
     // both directions through the plane of the normal and the half vector maps phi_d to -phi_d, and
     // reciprocity (swapping them) adds pi; an isotropic, reciprocal BRDF is unchanged by both, and
@@ -975,7 +976,8 @@ fill_row_lanes(const FillInputs& in, int row, const double* sin_phi, const doubl
 } // namespace
 
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
-    formats::BrdfTable table(formats::BrdfTable::Unwritten{}); // every cell is written below
+    // Every cell is written below; a grey fill (one channel) makes a grey table.
+    formats::BrdfTable table(formats::BrdfTable::Unwritten{}, in.channels == 1);
     std::array<double, formats::phi_d_bins> sin_phi{}, cos_phi{};
     for (int k = 0; k < formats::phi_d_bins; ++k) {
         sin_phi[k] = std::sin(formats::phi_d_centre(k));

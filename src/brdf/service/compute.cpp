@@ -74,7 +74,7 @@ void write_spectral_table(const fs::path& path, const model::SolvedMaterial& sol
             if (group.sample[c] < 0) continue;
             std::vector<float>& plane = table.planes[static_cast<std::size_t>(group.sample[c])];
             for (std::size_t cell = 0; cell < plane.size(); ++cell)
-                plane[cell] = filled.has_data(cell) ? static_cast<float>(filled.channels[c][cell])
+                plane[cell] = filled.has_data(cell) ? static_cast<float>(filled.plane(c)[cell])
                                                     : formats::SpectralTable::no_data;
         }
     });
