@@ -247,17 +247,23 @@ solve_hessenberg_lanes(const Matrix& h, const double* u, double* y, double* work
     typedef double Vec __attribute__((vector_size(8 * hessenberg_lanes), aligned(8)));
     typedef long long Mask __attribute__((vector_size(8 * hessenberg_lanes), aligned(8)));
     const int n = h.rows();
-    // Row k of the triangular factor U at a[k * n + j], j >= k. The rows of I + u H are made as the
-    // elimination reaches them: at step k, row k + 1's slot receives what row k's pivot leaves of
+    // Row k of the triangular factor U at a[k * stride + j], j >= k. The rows of I + u H are made as
+    // the elimination reaches them: at step k, row k + 1's slot receives what row k's pivot leaves of
     // the other row (the next step's candidate), so every step reads the row the last one wrote.
+    // Rows one vector longer than n: at 64 streams rows of n vectors lie 4 KiB apart, and each
+    // load from row k then waited on the store to the same column of row k + 1 (the CPU compares
+    // only an address's low 12 bits at first: 4K aliasing); BM_PencilShifts at 64 streams 410-623
+    // -> 441 us, at 128 1015-2006 -> 1050 us (the slow ones from run to run), HG's grids
+    // (BM_PrepareFillHg) 9.5 -> 7.2 ms, the same answers.
+    const int stride = n + 1;
     Vec* const a = reinterpret_cast<Vec*>(work);
     Vec* const x = reinterpret_cast<Vec*>(y);
     const Vec shift = *reinterpret_cast<const Vec*>(u);
     Mask singular = {};
     for (int j = 0; j < n; ++j) a[j] = (j == 0 ? 1.0 : 0.0) + shift * h(0, j);
     for (int k = 0; k + 1 < n; ++k) {
-        Vec* const top = a + k * n;        // the candidate from above (row 0 at k = 0)
-        Vec* const below = a + (k + 1) * n; // row k + 1 of I + u H, made here (H: from column k on)
+        Vec* const top = a + k * stride;         // the candidate from above (row 0 at k = 0)
+        Vec* const below = a + (k + 1) * stride; // row k + 1 of I + u H (H: from column k on)
         const double* const next = h.data().data() + static_cast<std::size_t>(k + 1) * n; // row k + 1 of H
         const Vec t = top[k], b = shift * next[k]; // (k + 1, k): off the diagonal
         const Mask swap = (b < 0.0 ? -b : b) > (t < 0.0 ? -t : t); // |b| > |t|, false for NaN
@@ -279,11 +285,11 @@ solve_hessenberg_lanes(const Matrix& h, const double* u, double* y, double* work
         x[k + 1] -= factor * x[k];
     }
     for (int i = n - 1; i >= 0; --i) {
-        const Vec pivot = a[i * n + i];
+        const Vec pivot = a[i * stride + i];
         const Vec xi = x[i] / pivot;
         singular |= ~(pivot != 0.0) | ~(xi - xi == 0.0); // a zero pivot, or an infinite or NaN answer
         x[i] = xi;
-        for (int k = 0; k < i; ++k) x[k] -= a[k * n + i] * xi;
+        for (int k = 0; k < i; ++k) x[k] -= a[k * stride + i] * xi;
     }
     for (int l = 0; l < hessenberg_lanes; ++l) bad[l] = singular[l] != 0;
 }
@@ -309,8 +315,9 @@ void ShiftedPencil::solve(std::span<const double> u, Matrix& b) const {
     gemm(m_q, true, b, false, y);
     Matrix yt = transpose(y); // one shift per row (the product with Z below as before)
     constexpr int lanes = hessenberg_lanes;
-    // Scratch every solve writes before it reads (n x n x 8: 262 KB at 64 streams), not zeroed first.
-    const auto work = std::make_unique_for_overwrite<double[]>(static_cast<std::size_t>(n) * n * lanes);
+    // Scratch every solve writes before it reads (n x (n + 1) x 8: 266 KB at 64 streams), not zeroed
+    // first.
+    const auto work = std::make_unique_for_overwrite<double[]>(static_cast<std::size_t>(n) * (n + 1) * lanes);
     std::vector<double> group(static_cast<std::size_t>(n) * lanes);
     for (int e0 = 0; e0 < k; e0 += lanes) {
         const int count = std::min(lanes, k - e0);
