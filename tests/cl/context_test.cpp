@@ -202,6 +202,21 @@ TEST(ClPoclCache, RemovesOnlyOldEmptyTempfiles) {
     EXPECT_EQ(brdf::cl::remove_pocl_leftovers(dir.path() / "missing", hours(1)), 0u);
 }
 
+// A folder is swept at most once a period: the first look touches its stamp, the next within the
+// period skips, and one after it (the stamp made older) sweeps again.
+TEST(ClPoclCache, AFolderIsSweptAtMostOnceAPeriod) {
+    const brdf::test::TempDir dir;
+    using std::chrono::hours;
+    EXPECT_TRUE(brdf::cl::pocl_sweep_due(dir.path(), hours(1)));
+    const fs::path stamp = dir.path() / ".brdf-pocl-swept";
+    ASSERT_TRUE(fs::exists(stamp));
+    EXPECT_FALSE(brdf::cl::pocl_sweep_due(dir.path(), hours(1)));
+    EXPECT_FALSE(brdf::cl::pocl_sweep_due(dir.path(), hours(1)));
+    fs::last_write_time(stamp, fs::file_time_type::clock::now() - std::chrono::minutes(61));
+    EXPECT_TRUE(brdf::cl::pocl_sweep_due(dir.path(), hours(1)));
+    EXPECT_FALSE(brdf::cl::pocl_sweep_due(dir.path(), hours(1)));
+}
+
 // A process that starts PoCL in the cache folder it chose sweeps what earlier starts left there;
 // the file its own start leaves stays, being young (at most one per process remains).
 TEST(ClPoclCache, StartingPoclSweepsTheFolderItChose) {
@@ -224,6 +239,11 @@ TEST(ClPoclCache, StartingPoclSweepsTheFolderItChose) {
     EXPECT_EQ(result.out, "1\n");
     EXPECT_FALSE(fs::exists(leftover));
     EXPECT_LE(count(), 1u);
+    // Within the hour the next start does not look again (the folder's stamp is new).
+    std::ofstream(leftover).close();
+    fs::last_write_time(leftover, fs::file_time_type::clock::now() - std::chrono::hours(3));
+    EXPECT_EQ(run_probe({"-u", "POCL_CACHE_DIR", "XDG_CACHE_HOME=" + home.path().string()}, {"available"}).status, 0);
+    EXPECT_TRUE(fs::exists(leftover));
 
     // A folder named by POCL_CACHE_DIR is the user's: left alone.
     const fs::path theirs = home.path() / "theirs";

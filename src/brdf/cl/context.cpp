@@ -233,12 +233,17 @@ fs::path& folder_chosen_here() {
 // PoCL 3.1's start creates an empty file tempfile_XXXXXX in its cache folder and leaves it there
 // (strace: O_CREAT | O_EXCL before it loads its devices, no unlink): one per process, 1,342 of them
 // in a folder of ours after a day of tests. Once PoCL has started, the empty ones older than an
-// hour are removed from the folder we chose (one POCL_CACHE_DIR names is left alone). A younger
-// one may be another process's file on its way to being written and renamed.
+// hour are removed from the folder we chose (one POCL_CACHE_DIR names is left alone), at most once
+// an hour (pocl_sweep_due): every process had looked at each of them, and a busy hour's files are
+// many (a Slurm array's thousands of starts; a benchmark's few hundred took 1-3 ms of each start,
+// on the thread that opens the device). A younger one may be another process's file on its way to
+// being written and renamed.
 void sweep_pocl_leftovers() {
     static std::once_flag once;
     std::call_once(once, [] {
-        if (!folder_chosen_here().empty()) remove_pocl_leftovers(folder_chosen_here(), std::chrono::hours(1));
+        const fs::path& folder = folder_chosen_here();
+        if (!folder.empty() && pocl_sweep_due(folder, std::chrono::hours(1)))
+            remove_pocl_leftovers(folder, std::chrono::hours(1));
     });
 }
 
@@ -257,19 +262,43 @@ std::string cache_folder_problem(const fs::path& folder) {
     return {};
 }
 
+namespace {
+
+// When `st` was last modified, on the system clock.
+std::chrono::system_clock::time_point modified_at(const struct stat& st) {
+    return std::chrono::system_clock::time_point(
+        std::chrono::duration_cast<std::chrono::system_clock::duration>(
+            std::chrono::seconds(st.st_mtim.tv_sec) + std::chrono::nanoseconds(st.st_mtim.tv_nsec)));
+}
+
+} // namespace
+
+bool pocl_sweep_due(const fs::path& folder, std::chrono::seconds period) {
+    const fs::path stamp = folder / ".brdf-pocl-swept";
+    struct stat st {};
+    if (::stat(stamp.c_str(), &st) == 0 && std::chrono::system_clock::now() - modified_at(st) < period)
+        return false;
+    // Touched before the sweep: a process starting meanwhile skips it.
+    const int fd = ::open(stamp.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+    if (fd >= 0) {
+        ::futimens(fd, nullptr);
+        ::close(fd);
+    }
+    return true;
+}
+
 std::size_t remove_pocl_leftovers(const fs::path& folder, std::chrono::seconds min_age) {
     std::error_code ec;
     fs::directory_iterator it(folder, ec);
     if (ec) return 0;
-    const auto now = fs::file_time_type::clock::now();
+    const auto now = std::chrono::system_clock::now();
     std::size_t removed = 0;
     for (const fs::directory_entry& entry : it) {
         if (!entry.path().filename().string().starts_with("tempfile_")) continue;
-        // symlink_status: a link is not a regular file, so none is followed.
-        if (!fs::is_regular_file(entry.symlink_status(ec)) || ec) continue;
-        if (entry.file_size(ec) != 0 || ec) continue;
-        const auto modified = entry.last_write_time(ec);
-        if (ec || now - modified < min_age) continue;
+        // One lstat for type, size and age: a link is not a regular file, so none is followed.
+        struct stat st {};
+        if (::lstat(entry.path().c_str(), &st) != 0 || !S_ISREG(st.st_mode) || st.st_size != 0) continue;
+        if (now - modified_at(st) < min_age) continue;
         if (fs::remove(entry.path(), ec) && !ec) ++removed;
     }
     if (removed > 0) log::debug("PoCL cache: removed ", removed, " empty tempfile_* left by PoCL's start");

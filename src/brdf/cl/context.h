@@ -53,10 +53,15 @@ std::string unavailable_reason();
 std::filesystem::path prepare_environment(const std::filesystem::path& fallback = {});
 
 /// Removes the empty files tempfile_* at least `min_age` old that PoCL's start leaves in `folder`
-/// (PoCL 3.1: one per process). Once per process, after PoCL started, the folder
-/// prepare_environment chose is swept with a min_age of an hour. Returns how many were removed.
+/// (PoCL 3.1: one per process). After PoCL started, the folder prepare_environment chose is swept
+/// with a min_age of an hour, where pocl_sweep_due says so. Returns how many were removed.
 /// Exposed for tests.
 std::size_t remove_pocl_leftovers(const std::filesystem::path& folder, std::chrono::seconds min_age);
+
+/// Whether `folder` is due a sweep: its stamp file .brdf-pocl-swept is missing or at least `period`
+/// old. When it is, the stamp is touched (the processes starting within `period` skip it). Exposed
+/// for tests.
+bool pocl_sweep_due(const std::filesystem::path& folder, std::chrono::seconds period);
 
 /// Why `folder` cannot serve as a cache folder ("cannot create it: Permission denied"), or empty
 /// when it can be created and a file written in it. Exposed for tests.
