@@ -347,16 +347,26 @@ Reflector Reflection::half_space_reflector(int m, std::span<const double> u, boo
     for (int e = 0; e < ne; ++e)
         for (int i = 0; i < n; ++i) r.en(e, i) = rhs(i, e);
     // (w/4)[p(-u_a, u_b) + 2 u_b (Pu W Rn^T)_ab + 2 u_a (Rn W Pu^T)_ab + 4 u_a u_b (Rn W P- W Rn^T)_ab] / (u_a + u_b)
-    // The first term is the single scattering: the one of the four that costs E^2 L.
+    // The first term is the single scattering: the one of the four that costs E^2 L. With
+    // X = diag(u) Rn and A = Pu W + X W P- W, the other three are 2 (C + C^T)_ab, C = A X^T: W P- W
+    // is symmetric (p^m(-mu, mu') = p^m(-mu', mu): P_l^m(-x) = (-1)^(l+m) P_l^m(x)), so the last
+    // term is 2 u_a u_b (Rn W P- W Rn^T)_ab twice over. One E x E product instead of two (HG's 181
+    // grid cosines at 64 streams: 2.8 instead of 4.9 million multiply-adds an order).
     const Matrix single = with_single ? phase_components(beta, m, u, u).minus : Matrix(ne, ne);
     Matrix rnw = r.en, puw = pu.plus;
     for (int e = 0; e < ne; ++e)
         for (int k = 0; k < n; ++k) rnw(e, k) *= s.w[k], puw(e, k) *= s.w[k];
-    const Matrix t2 = multiply_transposed(puw, r.en);
-    const Matrix t4 = multiply_transposed(rnw * nys.minus_w, r.en);
+    Matrix a_rows = rnw * nys.minus_w; // Rn W P- W, then A
+    Matrix x_rows = r.en;
+    for (int e = 0; e < ne; ++e)
+        for (int k = 0; k < n; ++k) {
+            a_rows(e, k) = puw(e, k) + u[e] * a_rows(e, k);
+            x_rows(e, k) *= u[e];
+        }
+    const Matrix c = multiply_transposed(a_rows, x_rows);
     for (int a = 0; a < ne; ++a)
         for (int b = 0; b < ne; ++b) {
-            const double num = single(a, b) + 2.0 * u[b] * t2(a, b) + 2.0 * u[a] * t2(b, a) + 4.0 * u[a] * u[b] * t4(a, b);
+            const double num = single(a, b) + 2.0 * (c(a, b) + c(b, a));
             r.ee(a, b) = 0.25 * om * num / (u[a] + u[b]);
         }
     return r;
