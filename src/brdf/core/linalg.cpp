@@ -252,9 +252,9 @@ solve_hessenberg_lanes(const Matrix& h, const double* u, double* y, double* work
     // the other row (the next step's candidate), so every step reads the row the last one wrote.
     // Rows one vector longer than n: at 64 streams rows of n vectors lie 4 KiB apart, and each
     // load from row k then waited on the store to the same column of row k + 1 (the CPU compares
-    // only an address's low 12 bits at first: 4K aliasing); BM_PencilShifts at 64 streams 410-623
-    // -> 441 us, at 128 1015-2006 -> 1050 us (the slow ones from run to run), HG's grids
-    // (BM_PrepareFillHg) 9.5 -> 7.2 ms, the same answers.
+    // only an address's low 12 bits at first: 4K aliasing). BM_PencilShifts at 64 streams 410-623
+    // -> 441 us, at 128 1015-2006 -> 1050 us (the unpadded rows' time varied from run to run), HG's
+    // grids (BM_PrepareFillHg) 9.5 -> 7.2 ms; the same answers.
     const int stride = n + 1;
     Vec* const a = reinterpret_cast<Vec*>(work);
     Vec* const x = reinterpret_cast<Vec*>(y);
