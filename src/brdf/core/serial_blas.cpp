@@ -6,7 +6,7 @@
 // call BLAS on small matrices (N <= 100 streams) from those threads, so BLAS's threads only take
 // cores from ours: on two cores the seed material spent its first 0.1 s with one of them spinning;
 // without the spin it takes 0.59 s instead of 0.66 (CPU 0.95 s instead of 1.04), and no command got
-// slower (README, "Speed").
+// slower (measured when this was added, 2026-12-04).
 //
 // A constructor of the executable runs after OpenBLAS's (a library's initialisers run before the
 // program's) and before main: it sets one thread (openblas_set_num_threads, public API) and stops
