@@ -110,9 +110,9 @@ BrdfTable tabulate(const std::function<Rgb(const CellCentre&)>& brdf);
 
 /// Checks the invariants writers rely on: every channel holds `cells` values (a grey table: the
 /// red one, the others none), each finite, and each cell is either >= 0 in all three channels or
-/// no_data in all three. Cells below the horizon are
-/// not checked (writers ignore them). Throws NumericalError naming `what`, the first bad cell
-/// (channel, theta_h/theta_d/phi_d indices) and the value.
+/// no_data in all three. Cells below the horizon are not checked (writers ignore them). Throws
+/// NumericalError naming `what`, the first bad cell (channel, theta_h/theta_d/phi_d indices) and
+/// the value.
 void check_table(const BrdfTable& table, std::string_view what);
 
 /// check_table in parts, for a writer that checks each block of cells as it converts it: the
