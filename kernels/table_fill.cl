@@ -180,23 +180,31 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
         // The 16 taps of every lane: tap t = 4 a + b is grid node (so_idx[a], si_idx[b]), whose
         // orders start at fourier[tap_at[t * TF_LANES + lane]], weight so_w[a] si_w[b]; a ghost tap
         // (node 1 mirrored through the normal) is only ever tap a = 0 or b = 0, so a lane without
-        // one (all but those within a grid step of the normal) skips the mirrored sums.
+        // one (all but those within a grid step of the normal) skips the mirrored sums. A lane sums
+        // only the blocks of orders its cell needs (table_fill.cpp: cell_blocks, the most any of
+        // its taps' nodes needs); the others' sums are 0.
         const int e = p.grid;
         const int mp = (p.orders + TF_ORDER_BLOCK - 1) / TF_ORDER_BLOCK * TF_ORDER_BLOCK;
-        int tap_at[16 * TF_LANES], tap_mirrored[16 * TF_LANES], lane_ghost[TF_LANES];
+        int tap_at[16 * TF_LANES], tap_mirrored[16 * TF_LANES], lane_ghost[TF_LANES], lane_orders[TF_LANES];
         double tap_w[16 * TF_LANES];
         if (p.orders > 0) {
             int8 so_idx[4], si_idx[4], so_g[4], si_g[4];
             double8 so_w[4], si_w[4];
             stencil(mu_o, e, so_idx, so_w, so_g);
             stencil(mu_i, e, si_idx, si_w, si_g);
+            int8 blocks = (int8)(mp / TF_ORDER_BLOCK);
+            __global const double* node_blocks = data + max(p.node_blocks_offset, (long)0);
+            if (p.node_blocks_offset >= 0) blocks = (int8)(0);
             for (int a = 0; a < 4; ++a)
                 for (int b = 0; b < 4; ++b) {
-                    vstore8((so_idx[a] * e + si_idx[b]) * (mp * p.channels), 4 * a + b, tap_at);
+                    const int8 node = so_idx[a] * e + si_idx[b];
+                    vstore8(node * (mp * p.channels), 4 * a + b, tap_at);
                     vstore8(so_w[a] * si_w[b], 4 * a + b, tap_w);
                     vstore8(so_g[a] != si_g[b], 4 * a + b, tap_mirrored);
+                    if (p.node_blocks_offset >= 0) blocks = max(blocks, convert_int8(gather(node_blocks, node)));
                 }
             vstore8(so_g[0] | si_g[0], 0, lane_ghost);
+            vstore8(blocks * TF_ORDER_BLOCK, 0, lane_orders);
         }
         double8 cm_prev = c1, cm = (double8)(1.0); // cos(-phi) = cos(phi), cos(0)
         // cells[q][l]: element k = 8 q + i of lane l's sums of the pass's orders, i = 0..7;
@@ -219,14 +227,16 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             const int rgb_vectors = min(3, (3 * (p.orders - m0) + 7) / 8);
             const int vectors = p.channels == 1 ? 1 + pair : rgb_vectors;
             for (int l = 0; l < TF_LANES; ++l) {
-                if (lane_below[l]) { // its value is replaced: zeros keep the lane's sums defined
+                // A lane below the horizon: its value is replaced, zeros keep its sums defined.
+                if (lane_below[l] || m0 >= lane_orders[l]) {
                     for (int q = 0; q < vectors; ++q) cells[q][l] = (double8)(0.0);
                     continue;
                 }
                 __global const double* fourier = orders + m0 * p.channels;
                 if (p.channels == 1) { // a grey table: one channel, one double8 per block
                     double8 v0 = (double8)(0.0), v1 = (double8)(0.0), g0 = (double8)(0.0), g1 = (double8)(0.0);
-                    if (pair) {
+                    const int both = pair && m0 + TF_ORDER_BLOCK < lane_orders[l];
+                    if (both) {
                         for (int t = 0; t < 16; ++t) {
                             const double w = tap_w[t * TF_LANES + l];
                             __global const double* f = fourier + tap_at[t * TF_LANES + l];
@@ -242,7 +252,7 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
                             const double w = tap_w[t * TF_LANES + l];
                             __global const double* f = fourier + tap_at[t * TF_LANES + l];
                             g0 += w * vload8(0, f);
-                            if (pair) g1 += w * vload8(1, f);
+                            if (both) g1 += w * vload8(1, f);
                         }
                     cells[0][l] = select(v0, v0 - 2.0 * g0, odd_grey);
                     cells[1][l] = select(v1, v1 - 2.0 * g1, odd_grey);

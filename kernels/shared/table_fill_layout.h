@@ -41,4 +41,5 @@ typedef struct FillParams {
     brdf_i32 lobe_separable;      ///< 1: separable masking, 0: height-correlated
     brdf_i32 lobe_points;         ///< P
     brdf_i32 pad2;
+    brdf_i64 node_blocks_offset;  ///< FillInputs::node_blocks (grid * grid, as doubles); -1: every block everywhere
 } FillParams;

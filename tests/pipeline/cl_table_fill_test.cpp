@@ -284,6 +284,11 @@ TEST(ClTableFillInputs, InconsistentInputsAreRefused) {
     in.lobe_fresnel.push_back(0.04);
     in.lobe_alpha = 0.0; // below the range
     EXPECT_THROW(model::fill_table_opencl(in), InputError);
+    in.lobe_alpha = 0.1;
+    in.node_blocks.assign(3 * 3 - 1, 1); // one per node: 9 expected
+    EXPECT_THROW(model::fill_table_opencl(in), InputError);
+    in.node_blocks.assign(3 * 3, 2); // 2 orders are one block
+    EXPECT_THROW(model::fill_table_opencl(in), InputError);
 }
 
 } // namespace

@@ -252,6 +252,11 @@ void expect_channels_are_single_wavelength_solves(const char* text) {
         const model::SolvedMaterial single = model::solve_material(spec, model::Device::Cpu, settings);
         ASSERT_EQ(single.samples.size(), 1u);
         const model::FillInputs in = model::prepare_fill(single);
+        // The material's table sums at each grid node only the orders that node needs (its orders
+        // left out within a tenth of the order tolerance: model::node_order_blocks), the single solve
+        // every order it carries: they may differ by that cut times the Catmull-Rom weights' sum.
+        ASSERT_TRUE(in.node_blocks.empty());
+        const double cut = 1.5625 * 0.1 * settings.order_tolerance;
         double worst = 0.0;
         for (std::size_t cell : cells) {
             const auto ix = formats::cell_indices(cell);
@@ -264,7 +269,7 @@ void expect_channels_are_single_wavelength_solves(const char* text) {
             // float32 in the file: 6e-8 relative; 1e-6 with a floor of 1e-6 of a white Lambertian.
             worst = std::max(worst, std::abs(got - expected) / std::max(std::abs(expected), 3e-7));
         }
-        EXPECT_LE(worst, 1e-6) << lambda << " nm";
+        EXPECT_LE(worst, 1e-6 + cut) << lambda << " nm";
         std::printf("%.0f nm: worst relative difference %.2e over %zu cells\n", lambda, worst, cells.size());
     }
 }

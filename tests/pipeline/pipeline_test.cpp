@@ -463,6 +463,80 @@ TEST(PipelineTable, MirroredHalfEqualsTheDirectFill) {
     EXPECT_LT(worst, 1e-8);
 }
 
+// node_order_blocks on a grid of 2 x 2 nodes with 20 orders in 3 blocks: each node keeps the
+// fewest blocks whose left-out orders sum to at most the cut relative to its own R^0 (no smaller
+// than 1e-2 of the grid's largest R^0, per channel).
+TEST(PipelineTable, EachNodeKeepsTheBlocksOfOrdersItNeeds) {
+    model::FillInputs in;
+    in.grid = 2;
+    in.orders = 20;
+    in.channels = 3;
+    const int mp = model::padded_orders(in.orders);
+    ASSERT_EQ(mp, 24);
+    in.fourier.assign(4u * mp * 3, 0.0);
+    const auto at = [&](int node, int m, int c) -> double& {
+        return in.fourier[(static_cast<std::size_t>(node) * mp + m) * 3 + c];
+    };
+    for (int node = 0; node < 4; ++node)
+        for (int c = 0; c < 3; ++c) at(node, 0, c) = 1.0;
+    // Node 0: orders falling as 10^-m: 1e-5 .. 1e-19 left out from order 5 on (sum 1.1e-5 > 1e-5,
+    // 1.1e-6 from order 6): 6 orders, one block.
+    for (int m = 1; m < 20; ++m) at(0, m, 1) = std::pow(10.0, -m);
+    // Node 1: order 12 at 2e-6 in blue alone, order 19 at 5e-6 in red: with a cut of 1e-5 both may
+    // go (7e-6); order 9 at 4e-6 too would make 1.1e-5, so it stays: 10 orders, two blocks.
+    at(1, 9, 0) = 4e-6;
+    at(1, 12, 2) = 2e-6;
+    at(1, 19, 0) = 5e-6;
+    // Node 2: its R^0 is 1e-3 of the others' in green, so green counts relative to 1e-2 of the
+    // largest: 5e-8 at order 17 is 5e-6 of that, within the cut: one block; node 3: 2e-8 at
+    // order 17 in red, where its R^0 is 1 (2e-8 relative, within) but also 2e-5 at order 16 in
+    // green: the third block.
+    at(2, 0, 1) = 1e-3;
+    at(2, 17, 1) = 5e-8;
+    at(3, 17, 0) = 2e-8;
+    at(3, 16, 1) = 2e-5;
+    const std::vector<int> blocks = model::node_order_blocks(in, 1e-5);
+    ASSERT_EQ(blocks.size(), 4u);
+    EXPECT_EQ(blocks[0], 1);
+    EXPECT_EQ(blocks[1], 2);
+    EXPECT_EQ(blocks[2], 1);
+    EXPECT_EQ(blocks[3], 3);
+    // A cut of 0 keeps every block with anything in it.
+    EXPECT_EQ(model::node_order_blocks(in, 0.0), (std::vector<int>{3, 3, 3, 3}));
+}
+
+// The seed white's table at "default" with each node's blocks against every block at every node:
+// the cells differ by at most the orders left out, a tenth of the order tolerance (1e-6) of R^0
+// times the Catmull-Rom weights' sum (at most 1.5625), and the fill sums fewer blocks.
+TEST(PipelineTable, EachNodesOrdersChangeTheTableWithinTheCut) {
+    const model::SolvedMaterial m = solve_seed_white(R"("spectrum": "rgb")");
+    const model::FillInputs in = model::prepare_fill(m);
+    ASSERT_EQ(in.node_blocks.size(), static_cast<std::size_t>(in.grid) * in.grid);
+    const int all = model::padded_orders(in.orders) / model::fill_order_block;
+    ASSERT_GE(all, 2);
+    double blocks = 0.0;
+    for (int b : in.node_blocks) blocks += b;
+    blocks /= static_cast<double>(in.node_blocks.size());
+    std::printf("%d orders: each node needs %.2f of %d blocks on average\n", in.orders, blocks, all);
+    EXPECT_LT(blocks, 0.8 * all);
+    model::FillInputs every = in;
+    every.node_blocks.clear();
+    const formats::BrdfTable a = model::fill_table_cpu(in, 2), b = model::fill_table_cpu(every, 2);
+    double worst = 0.0;
+    std::size_t changed = 0;
+    for (std::size_t cell = 0; cell < formats::cells; ++cell) {
+        if (!b.has_data(cell)) continue;
+        for (int c = 0; c < 3; ++c) {
+            const double x = a.plane(c)[cell], y = b.plane(c)[cell];
+            changed += x != y;
+            worst = std::max(worst, std::abs(x - y) / y);
+        }
+    }
+    std::printf("%zu cell values changed, by %.2e relative at most\n", changed, worst);
+    EXPECT_GT(changed, 0u);
+    EXPECT_LT(worst, 1.5625 * 0.1 * m.settings.order_tolerance);
+}
+
 TEST(Pipeline, WhiteFurnaceTableConservesEnergy) {
     const model::SolvedMaterial m = model::solve_material(
         spec_from(R"({"name": "white", "medium": {"albedo": 1, "phase": {"type": "henyey_greenstein", "g": 0.3}},

@@ -24,7 +24,7 @@
 
 namespace brdf::model {
 
-static_assert(sizeof(FillParams) == 104);
+static_assert(sizeof(FillParams) == 112);
 static_assert(offsetof(FillParams, phase_offset) == 0);
 static_assert(offsetof(FillParams, refractive_index_offset) == 8);
 static_assert(offsetof(FillParams, transmission_offset) == 16);
@@ -43,6 +43,7 @@ static_assert(offsetof(FillParams, lobe) == 88);
 static_assert(offsetof(FillParams, lobe_separable) == 92);
 static_assert(offsetof(FillParams, lobe_points) == 96);
 static_assert(offsetof(FillParams, pad2) == 100);
+static_assert(offsetof(FillParams, node_blocks_offset) == 104);
 static_assert(static_cast<int>(FillInputs::Lobe::Ggx) == 1 && static_cast<int>(FillInputs::Lobe::Beckmann) == 2);
 static_assert(TF_CELLS == formats::cells);
 static_assert(TF_THETA_H_BINS == formats::theta_h_bins);
@@ -75,6 +76,13 @@ void validate(const FillInputs& in) {
     if (in.fourier.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
         throw LimitError(cat("OpenCL table fill: ", in.fourier.size(), " Fourier values (at most ",
                              std::numeric_limits<int>::max(), "); use --device cpu"));
+    if (!in.node_blocks.empty()) {
+        require_size(in.node_blocks.size(), e * e, "node_blocks");
+        const int most = padded_orders(in.orders) / fill_order_block;
+        for (int b : in.node_blocks)
+            if (b < 0 || b > most)
+                throw InputError(cat("OpenCL table fill: a node needs ", b, " blocks of orders (0 to ", most, ")"));
+    }
     require_size(in.phase.size(), s * static_cast<std::size_t>(std::max(0, in.phase_points)) * c, "phase");
     require_size(in.refractive_index.size(), s, "refractive_index");
     require_size(in.transmission.size(), s * static_cast<std::size_t>(std::max(0, in.fresnel_points)), "transmission");
@@ -111,7 +119,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     FillParams params{};
     std::vector<double> data;
     data.reserve(in.phase.size() + in.refractive_index.size() + in.transmission.size() + in.tau.size() +
-                 in.lobe_fresnel.size() +
+                 in.lobe_fresnel.size() + in.node_blocks.size() +
                  2 * (formats::theta_h_bins + formats::theta_d_bins + formats::phi_d_bins));
     auto append = [&data](const std::vector<double>& v) {
         const auto offset = static_cast<brdf_i64>(data.size());
@@ -124,6 +132,9 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     params.geometry_offset = append(bin_centre_trigonometry());
     params.tau_offset = append(in.tau);
     params.lobe_fresnel_offset = append(in.lobe_fresnel);
+    params.node_blocks_offset = -1;
+    if (!in.node_blocks.empty())
+        params.node_blocks_offset = append(std::vector<double>(in.node_blocks.begin(), in.node_blocks.end()));
     if (data.empty()) data.push_back(0.0);
     params.cell_count = static_cast<brdf_i64>(formats::cells);
     params.grid = in.grid;

@@ -80,6 +80,16 @@ Stencil stencil(double mu, int grid) {
     return s;
 }
 
+// The blocks of orders a cell sums: the most any of its 16 taps' nodes needs (FillInputs::node_blocks).
+int cell_blocks(const FillInputs& in, const Stencil& so, const Stencil& si) {
+    if (in.node_blocks.empty()) return padded_orders(in.orders) / fill_order_block;
+    int blocks = 0;
+    for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b)
+            blocks = std::max(blocks, in.node_blocks[static_cast<std::size_t>(so.idx[a]) * in.grid + si.idx[b]]);
+    return blocks;
+}
+
 // Catmull-Rom through a table with one ghost point beyond each end: table[k] holds the value at
 // x_k = (k - 1) / (points - 3), k = 0 .. points - 1; x in [0, 1]. The taps x_{k-1} .. x_{k+2} of
 // x's interval are entries k .. k + 3.
@@ -504,6 +514,9 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
                 for (int i = 0; i < e; ++i) row[(static_cast<std::size_t>(i) * mp + m) * channels + c] = from[i];
             }
     });
+    // Each node's orders: the solve's cut, a tenth of the order tolerance, taken node by node and
+    // summed over the orders a node leaves out (where the solve keeps every order, so does the fill).
+    if (material.settings.fit_orders) in.node_blocks = node_order_blocks(in, 0.1 * material.settings.order_tolerance);
     // The single-scattering terms of every sample and layer (none under a rough surface: no TMS).
     // A reflection seen from air scatters inside a layer of index n > 1 through cos Theta <= 2 / n^2
     // - 1 at most (both directions at the critical angle, opposite azimuths; add_single_scattering
@@ -564,6 +577,40 @@ FillInputs assemble_fill(const SolvedMaterial& material, const std::vector<std::
 
 } // namespace
 
+std::vector<int> node_order_blocks(const FillInputs& in, double cut) {
+    const int e = in.grid, mp = padded_orders(in.orders), channels = in.channels;
+    const std::size_t nodes = static_cast<std::size_t>(e) * e;
+    std::vector<int> blocks(nodes, mp / fill_order_block);
+    if (in.orders == 0 || in.fourier.size() != nodes * mp * channels) return blocks;
+    double largest[3] = {0.0, 0.0, 0.0};
+    for (std::size_t node = 0; node < nodes; ++node)
+        for (int c = 0; c < channels; ++c)
+            largest[c] = std::max(largest[c], std::abs(in.fourier[node * mp * channels + c]));
+    parallel_for(e, available_cpus(), [&](int o) {
+        for (int i = 0; i < e; ++i) {
+            const std::size_t node = static_cast<std::size_t>(o) * e + i;
+            const double* f = &in.fourier[node * mp * channels];
+            double scale[3];
+            for (int c = 0; c < channels; ++c) scale[c] = std::max(std::abs(f[c]), 1e-2 * largest[c]);
+            // The orders from the top down while what they add up to stays within the cut.
+            int needed = in.orders;
+            double left_out = 0.0;
+            for (int m = in.orders - 1; m >= 1; --m) {
+                double term = 0.0; // relative to R^0, the largest of the channels
+                for (int c = 0; c < channels; ++c) {
+                    const double v = std::abs(f[m * channels + c]);
+                    if (v > 0.0) term = std::max(term, v / scale[c]);
+                }
+                if (!(left_out + term <= cut)) break;
+                left_out += term;
+                needed = m;
+            }
+            blocks[node] = (needed + fill_order_block - 1) / fill_order_block;
+        }
+    });
+    return blocks;
+}
+
 FillInputs prepare_fill(const SolvedMaterial& material, int zenith_grid) {
     std::vector<std::size_t> all(material.samples.size());
     std::vector<Rgb> weights;
@@ -613,13 +660,16 @@ Rgb cell_value(const FillInputs& in, const CellDirections& d) {
     const int mp = padded_orders(in.orders);
     Stencil so{}, si{};
     if (in.orders > 0) so = stencil(mu_o, e), si = stencil(mu_i, e);
+    const int blocks = cell_blocks(in, so, si);
     const auto orders = [&]<int C> { // C channels per order
         constexpr int block = C * fill_order_block;
         for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
             // acc: every tap as its node; mirrored: the taps mirrored through the normal in one
             // direction only, whose odd orders (j odd: m0 is even) count with the opposite sign.
+            // A block the cell does not need adds 0.
             double acc[block] = {}, mirrored[block] = {};
-            for (int a = 0; a < 4; ++a)
+            const bool needed = m0 < blocks * fill_order_block;
+            for (int a = 0; needed && a < 4; ++a)
                 for (int b = 0; b < 4; ++b) {
                     const double w = so.w[a] * si.w[b];
                     const double* f =
@@ -789,6 +839,7 @@ template <int C>
         double w[16];
         bool mirrored[16];
         bool any_mirrored;
+        int blocks; // cell_blocks
     } taps[lanes];
     for (int l = 0; l < lanes; ++l) {
         if (!g.live[l]) continue;
@@ -802,12 +853,13 @@ template <int C>
                 t.mirrored[4 * a + b] = so.ghost[a] != si.ghost[b];
                 t.any_mirrored = t.any_mirrored || t.mirrored[4 * a + b];
             }
+        t.blocks = cell_blocks(in, so, si);
     }
     Lanes cm_prev = g.cos_phi, cm = splat(1.0); // cos(-phi) = cos(phi), cos(0)
     alignas(64) double terms[block][lanes];
     for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
         for (int l = 0; l < lanes; ++l) {
-            if (!g.live[l]) {
+            if (!g.live[l] || m0 >= taps[l].blocks * fill_order_block) {
                 for (int k = 0; k < block; ++k) terms[k][l] = 0.0;
                 continue;
             }

@@ -53,6 +53,11 @@ struct FillInputs {
     /// together, in blocks of fill_order_block orders: a cell's interpolation is then 16 taps of
     /// contiguous blocks, which the compilers vectorise (C++ and OpenCL alike).
     std::vector<double> fourier;
+    /// node_blocks[o * E + i]: how many blocks of fill_order_block orders grid node (o, i) needs,
+    /// 0 .. padded_orders(M) / fill_order_block. A cell sums the blocks the most demanding of its
+    /// 16 taps needs; the orders beyond add 0 (node_order_blocks says what a node leaves out).
+    /// Empty: every block at every node.
+    std::vector<int> node_blocks;
     /// S: single-scattering terms, each with its own refraction: one per wavelength (or channel)
     /// and layer (Reflection::single_scattering), or, for a half-space whose wavelengths differ only
     /// in their binder index, one per node of an interpolation in that index (table_fill.cpp:
@@ -84,6 +89,14 @@ struct FillInputs {
     int lobe_points = 0;
     std::vector<double> lobe_fresnel;
 };
+
+/// The blocks of orders each node of `in.fourier` needs (FillInputs::node_blocks): the fewest whose
+/// orders leave out at most `cut` times the node's R^0 in every channel, summed over the orders
+/// left out (R^0 no smaller than 1e-2 of the grid's largest in that channel, as the solve's order
+/// cut takes it: model::reflection_orders). The Fourier coefficients fall fast in m wherever the
+/// directions are not grazing and the phase function is not sharply peaked, so most nodes need
+/// far fewer orders than the few near grazing that set M.
+std::vector<int> node_order_blocks(const FillInputs& in, double cut);
 
 /// The fill inputs of every sample with its colour weight, on the material's table grid, or on
 /// `zenith_grid` zenith angles (0..90 degrees) when that is positive and coarser (a preview's);
