@@ -289,6 +289,13 @@ TEST(ClTableFillInputs, InconsistentInputsAreRefused) {
     EXPECT_THROW(model::fill_table_opencl(in), InputError);
     in.node_blocks.assign(3 * 3, 2); // 2 orders are one block
     EXPECT_THROW(model::fill_table_opencl(in), InputError);
+    // Without orders the nodes' blocks are not read (a fill of the single scattering alone).
+    in.node_blocks.assign(3 * 3, 1);
+    in.orders = 0;
+    in.fourier.clear();
+    if (brdf::cl::available()) {
+        EXPECT_NO_THROW(model::fill_table_opencl(in));
+    }
 }
 
 } // namespace

@@ -76,7 +76,7 @@ void validate(const FillInputs& in) {
     if (in.fourier.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
         throw LimitError(cat("OpenCL table fill: ", in.fourier.size(), " Fourier values (at most ",
                              std::numeric_limits<int>::max(), "); use --device cpu"));
-    if (!in.node_blocks.empty()) {
+    if (in.orders > 0 && !in.node_blocks.empty()) {
         require_size(in.node_blocks.size(), e * e, "node_blocks");
         const int most = padded_orders(in.orders) / fill_order_block;
         for (int b : in.node_blocks)
@@ -133,7 +133,7 @@ formats::BrdfTable fill_table_opencl(const FillInputs& in) {
     params.tau_offset = append(in.tau);
     params.lobe_fresnel_offset = append(in.lobe_fresnel);
     params.node_blocks_offset = -1;
-    if (!in.node_blocks.empty())
+    if (in.orders > 0 && !in.node_blocks.empty())
         params.node_blocks_offset = append(std::vector<double>(in.node_blocks.begin(), in.node_blocks.end()));
     if (data.empty()) data.push_back(0.0);
     params.cell_count = static_cast<brdf_i64>(formats::cells);

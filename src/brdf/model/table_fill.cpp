@@ -82,7 +82,7 @@ Stencil stencil(double mu, int grid) {
 
 // The blocks of orders a cell sums: the most any of its 16 taps' nodes needs (FillInputs::node_blocks).
 int cell_blocks(const FillInputs& in, const Stencil& so, const Stencil& si) {
-    if (in.node_blocks.empty()) return padded_orders(in.orders) / fill_order_block;
+    if (in.orders == 0 || in.node_blocks.empty()) return padded_orders(in.orders) / fill_order_block;
     int blocks = 0;
     for (int a = 0; a < 4; ++a)
         for (int b = 0; b < 4; ++b)

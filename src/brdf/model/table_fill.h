@@ -56,7 +56,7 @@ struct FillInputs {
     /// node_blocks[o * E + i]: how many blocks of fill_order_block orders grid node (o, i) needs,
     /// 0 .. padded_orders(M) / fill_order_block. A cell sums the blocks the most demanding of its
     /// 16 taps needs; the orders beyond add 0 (node_order_blocks says what a node leaves out).
-    /// Empty: every block at every node.
+    /// Empty: every block at every node. Unused (not read, not checked) where M is 0.
     std::vector<int> node_blocks;
     /// S: single-scattering terms, each with its own refraction: one per wavelength (or channel)
     /// and layer (Reflection::single_scattering), or, for a half-space whose wavelengths differ only
