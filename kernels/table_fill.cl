@@ -227,7 +227,8 @@ __kernel void table_fill(__global const FillParams* params_in, __global const do
             const int rgb_vectors = min(3, (3 * (p.orders - m0) + 7) / 8);
             const int vectors = p.channels == 1 ? 1 + pair : rgb_vectors;
             for (int l = 0; l < TF_LANES; ++l) {
-                // A lane below the horizon: its value is replaced, zeros keep its sums defined.
+                // Zeros for a lane below the horizon (its value is replaced; they keep its sums
+                // defined) and for one whose cell needs no orders from m0 on.
                 if (lane_below[l] || m0 >= lane_orders[l]) {
                     for (int q = 0; q < vectors; ++q) cells[q][l] = (double8)(0.0);
                     continue;
