@@ -13,6 +13,8 @@
 //                                    evaluation off the nodes of one order), one thread.
 //   BM_PencilSetup/streams           ShiftedPencil's construction (the Hessenberg reduction of one
 //                                    order's D^-1 G), one thread.
+//   BM_PencilBatch/streams           eight orders' pencils reduced together (ShiftedPencil::batch, as
+//                                    a half-space's Nystrom operators are built), one thread.
 // Iterations stop at the "default" accuracy's tolerance (1e-8 relative change).
 // The fixed point at omega -> 1 runs to SolveControl's default cap (100000 sweeps) at m = 0: it is the
 // baseline the doubling replaces, and slow on purpose.
@@ -124,7 +126,15 @@ void BM_PencilSetup(benchmark::State& state) {
     const std::vector<double> d = pencil_d(n);
     for (auto _ : state) benchmark::DoNotOptimize(brdf::ShiftedPencil(g, d));
 }
-BENCHMARK(BM_PencilSetup)->Arg(32)->Arg(64)->Arg(128)->ArgName("streams")->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PencilSetup)->Arg(32)->Arg(64)->Arg(96)->Arg(128)->ArgName("streams")->Unit(benchmark::kMicrosecond);
+
+void BM_PencilBatch(benchmark::State& state) {
+    const int n = static_cast<int>(state.range(0));
+    const std::vector<brdf::Matrix> g(8, pencil_g(n));
+    const std::vector<double> d = pencil_d(n);
+    for (auto _ : state) benchmark::DoNotOptimize(brdf::ShiftedPencil::batch(g, d));
+}
+BENCHMARK(BM_PencilBatch)->Arg(32)->Arg(64)->Arg(96)->ArgName("streams")->Unit(benchmark::kMicrosecond);
 
 // The shifts of one order's table grid (181 zenith angles) against a pencil of `streams` nodes, as
 // Reflection::half_space_reflector solves them (the time does not depend on G's values).

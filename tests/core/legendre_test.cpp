@@ -258,5 +258,51 @@ TEST(Linalg, ShiftedPencilSolvesEachShiftAsItWouldAlone) {
     }
 }
 
+// A batch of pencils of one D is reduced eight at a time in vector lanes: each pencil solves as it
+// does reduced alone by LAPACK (to rounding) and exactly as in a batch of its own (the same
+// operations in its lane, whatever its neighbours), for a count that is no multiple of eight, and
+// one pencil whose G is diagonal (no reflector at all: D^-1 G is already Hessenberg) solves as the
+// diagonal system it is. Above the lanes' largest size the batch is LAPACK's, pencil by pencil.
+TEST(Linalg, ShiftedPencilBatchSolvesEachAsItWouldAlone) {
+    for (const int n : {20, 97}) {
+        SCOPED_TRACE(n);
+        const int count = 11;
+        std::vector<double> d(static_cast<std::size_t>(n));
+        for (int i = 0; i < n; ++i) d[i] = std::pow(10.0, -2.0 * i / (n - 1.0));
+        std::vector<Matrix> g;
+        for (int p = 0; p < count; ++p) {
+            Matrix m(n, n);
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j)
+                    m(i, j) = (i == j ? 1.0 + 0.1 * p : 0.0) -
+                              (p == 4 ? 0.0 : 0.6 * std::cos(0.7 * i * j + 0.3 * j + p) / n);
+            g.push_back(std::move(m));
+        }
+        const std::vector<ShiftedPencil> batch = ShiftedPencil::batch(g, d);
+        ASSERT_EQ(batch.size(), g.size());
+        const std::vector<double> shifts = {1e-3, 0.3, 1.0};
+        Matrix rhs(n, 3);
+        for (int i = 0; i < n; ++i)
+            for (int e = 0; e < 3; ++e) rhs(i, e) = std::sin(1.0 + i + 0.5 * e);
+        for (int p = 0; p < count; ++p) {
+            Matrix together = rhs, own = rhs, alone = rhs;
+            batch[p].solve(shifts, together);
+            ShiftedPencil::batch(std::span(&g[p], 1), d).front().solve(shifts, own);
+            ShiftedPencil(g[p], d).solve(shifts, alone);
+            for (int i = 0; i < n; ++i)
+                for (int e = 0; e < 3; ++e) {
+                    EXPECT_EQ(together(i, e), own(i, e)) << "pencil " << p << " row " << i << " shift " << e;
+                    EXPECT_NEAR(together(i, e), alone(i, e), 1e-12 * (1.0 + std::abs(alone(i, e))))
+                        << "pencil " << p << " row " << i << " shift " << e;
+                    if (p == 4) { // diagonal: x_i = b_i / (d_i + u g_ii)
+                        EXPECT_NEAR(together(i, e), rhs(i, e) / (d[i] + shifts[e] * g[p](i, i)),
+                                    1e-14 * std::abs(together(i, e)));
+                    }
+                }
+        }
+    }
+    EXPECT_TRUE(ShiftedPencil::batch({}, std::vector<double>{1.0}).empty());
+}
+
 } // namespace
 } // namespace brdf::test

@@ -196,20 +196,144 @@ void LuFactor::solve(std::span<double> b) const {
     std::copy(m.data().begin(), m.data().end(), b.begin());
 }
 
-ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d)
-    : m_h(g), m_q(g.rows(), g.cols()), m_z(g.rows(), g.cols()) {
-    const int n = g.rows();
-    if (g.cols() != n || static_cast<int>(d.size()) != n)
+namespace {
+
+// The Householder reduction of `hessenberg_lanes` matrices side by side to upper Hessenberg form,
+// A = Z H Z^T (Golub and Van Loan 2013, algorithm 7.4.2; LAPACK's dgehd2 and dorg2r, unblocked):
+// a[i * n + j] holds element (i, j) of every lane's matrix and receives H (zeros below the
+// subdiagonal), z receives Z. LAPACK did the same one matrix at a time, and for the Nystrom
+// pencils' 32 x 32 (a material's orders times its wavelengths: 750 for the seed) its calls cost
+// more than their arithmetic: 44 us a pencil at 32 streams, 170 us at 64, where eight in the lanes
+// take ~5 and ~25 (bench_solver BM_PencilSetup). Each lane sees the operations of a scalar
+// reduction in the same order, so its H and Z do not depend on its neighbours or on the
+// instruction set (no contraction; the clones give identical results). A column already zero below
+// the subdiagonal gets no reflector (tau 0), as in LAPACK's dlarfg. `scratch` holds 3 n entries.
+constexpr int hessenberg_lanes = 8;
+// One entry of every lane's matrix; the buffers are allocated 64-byte aligned (ShiftedPencil::reduce).
+typedef double LaneVec __attribute__((vector_size(8 * hessenberg_lanes)));
+typedef long long LaneMask __attribute__((vector_size(8 * hessenberg_lanes)));
+
+// M(r, c) -= tau v_r (v^T M)(c) for rows r >= k + 1 and columns c >= c0 of the n x n lanes matrix m:
+// the reflector from the left. v^T M is summed four columns at a time in registers (each column's
+// sum over the rows in order), where a sum kept in memory and updated row by row had made every
+// step a load, an add and a store.
+[[gnu::always_inline]] inline void reflect_rows(int n, int k, int c0, LaneVec* m, const LaneVec* v, const LaneVec& tau,
+                                                LaneVec* w) {
+    int j = c0;
+    for (; j + 4 <= n; j += 4) {
+        LaneVec s0 = {}, s1 = {}, s2 = {}, s3 = {};
+        for (int i = k + 1; i < n; ++i) {
+            const LaneVec* row = m + i * n + j;
+            s0 += v[i] * row[0];
+            s1 += v[i] * row[1];
+            s2 += v[i] * row[2];
+            s3 += v[i] * row[3];
+        }
+        w[j] = s0, w[j + 1] = s1, w[j + 2] = s2, w[j + 3] = s3;
+    }
+    for (; j < n; ++j) {
+        LaneVec s = {};
+        for (int i = k + 1; i < n; ++i) s += v[i] * m[i * n + j];
+        w[j] = s;
+    }
+    for (int i = k + 1; i < n; ++i) {
+        const LaneVec f = tau * v[i];
+        for (int c = c0; c < n; ++c) m[i * n + c] -= f * w[c];
+    }
+}
+
+// The Householder reduction of `hessenberg_lanes` matrices side by side to upper Hessenberg form,
+// A = Z H Z^T (Golub and Van Loan 2013, algorithm 7.4.2; LAPACK's dgehd2 and dorg2r, unblocked):
+// a[i * n + j] holds element (i, j) of every lane's matrix and receives H (zeros below the
+// subdiagonal), z receives Z. LAPACK (dgehrd, dorghr) did the same one matrix at a time, and for
+// the Nystrom pencils' sizes (a material's orders times its wavelengths: 750 of 32 x 32 for the
+// seed, 1,250 of 64 x 64 at "reference") its calls cost more than their arithmetic. Each lane
+// sees the operations of a scalar reduction in the same order, so its H and Z do not depend on its
+// neighbours or on the instruction set (no contraction; the clones give identical results). A
+// column already zero below the subdiagonal gets no reflector (tau 0), as in LAPACK's dlarfg.
+// `scratch` holds 3 n entries.
+__attribute__((target_clones("avx512f", "avx2", "default"))) void
+reduce_hessenberg_lanes(int n, LaneVec* a, LaneVec* z, LaneVec* scratch) {
+    LaneVec* const tau = scratch;
+    LaneVec* const w = tau + n; // v^T A
+    LaneVec* const v = w + n;   // the reflector, v[k + 1] = 1
+    const LaneVec zero = {}, one = zero + 1.0;
+    for (int k = 0; k + 2 < n; ++k) {
+        // The reflector I - tau v v^T that zeroes column k below row k + 1: v_{k+1} = 1, the rest
+        // kept where the column's zeros go (a[i * n + k], i > k + 1), as LAPACK keeps them.
+        const LaneVec alpha = a[(k + 1) * n + k];
+        LaneVec tail = zero; // sum of squares below the subdiagonal
+        for (int i = k + 2; i < n; ++i) tail += a[i * n + k] * a[i * n + k];
+        const LaneMask none = tail == 0.0;
+        LaneVec norm;
+        for (int l = 0; l < hessenberg_lanes; ++l) norm[l] = std::sqrt(alpha[l] * alpha[l] + tail[l]);
+        const LaneVec beta = alpha >= 0.0 ? -norm : norm;
+        const LaneVec t = none ? zero : (beta - alpha) / beta;
+        const LaneVec scale = none ? zero : one / (alpha - beta);
+        tau[k] = t;
+        a[(k + 1) * n + k] = none ? alpha : beta;
+        v[k + 1] = one;
+        for (int i = k + 2; i < n; ++i) v[i] = a[i * n + k] *= scale;
+        // From the right, every row: A(i, k+1:) -= tau (A(i, k+1:) v) v^T; each row's product in four
+        // partial sums (j = k + 1 + 4 q + p in sum p), added in order.
+        for (int i = 0; i < n; ++i) {
+            LaneVec* row = a + i * n;
+            LaneVec p0 = zero, p1 = zero, p2 = zero, p3 = zero;
+            int j = k + 1;
+            for (; j + 4 <= n; j += 4) {
+                p0 += row[j] * v[j];
+                p1 += row[j + 1] * v[j + 1];
+                p2 += row[j + 2] * v[j + 2];
+                p3 += row[j + 3] * v[j + 3];
+            }
+            for (; j < n; ++j) p0 += row[j] * v[j];
+            const LaneVec f = t * ((p0 + p1) + (p2 + p3));
+            for (int c = k + 1; c < n; ++c) row[c] -= f * v[c];
+        }
+        // From the left, rows and columns k + 1 on.
+        reflect_rows(n, k, k + 1, a, v, t, w);
+    }
+    // Z = H_0 H_1 ... H_{n-3}, accumulated backwards from the identity: reflector k touches rows and
+    // columns k + 1 on only, where the product of the later ones is all there is yet.
+    for (int i = 0; i < n * n; ++i) z[i] = zero;
+    for (int i = 0; i < n; ++i) z[i * n + i] = one;
+    for (int k = n - 3; k >= 0; --k) {
+        v[k + 1] = one;
+        for (int i = k + 2; i < n; ++i) v[i] = a[i * n + k];
+        reflect_rows(n, k, k + 1, z, v, tau[k], w);
+    }
+    for (int i = 2; i < n; ++i)
+        for (int j = 0; j + 1 < i; ++j) a[i * n + j] = zero;
+}
+
+// The checks common to both reductions: a square G of D's size, D invertible.
+void check_pencil(const Matrix& g, std::span<const double> d) {
+    const int n = static_cast<int>(d.size());
+    if (g.rows() != n || g.cols() != n)
         throw InternalError(cat("ShiftedPencil: shapes ", g.rows(), "x", g.cols(), " and ", d.size(), " differ"));
-    // D + u G = D (I + u A), A = D^-1 G = Z H Z^T (Householder, LAPACK dgehrd and dorghr: blocked,
-    // a third of the flops of dgghrd's Givens rotations on the pencil (D, G), which were 8 % of a
-    // matting agent's compute). So Q = D^-1 Z: (D + u G)^-1 b = Z (I + u H)^-1 Z^T D^-1 b.
     for (int i = 0; i < n; ++i) {
         const double di = d[static_cast<std::size_t>(i)];
         if (!(std::isfinite(di) && di != 0.0))
             throw InternalError(cat("ShiftedPencil: D(", i, ", ", i, ") = ", di, " (D must be invertible)"));
-        for (int j = 0; j < n; ++j) m_h(i, j) /= di;
     }
+}
+
+// Up to this size a batch's pencils are reduced in vector lanes; above it by LAPACK one at a time.
+// One thread, bench_solver BM_PencilBatch against BM_PencilSetup (LAPACK), per pencil (medians of
+// 5): 14 against 51 us at 32 streams, 136 against 234 at 64, 350 against 523 at 96; at 128 both
+// take ~1 ms (eight lane matrices of 128 x 128, 2 MB, no longer fit the caches).
+constexpr int largest_lane_pencil = 96;
+
+} // namespace
+
+ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d) : m_h(g), m_q(g.rows(), g.cols()) {
+    check_pencil(g, d);
+    const int n = g.rows();
+    // D + u G = D (I + u A), A = D^-1 G = Z H Z^T (Householder, LAPACK dgehrd and dorghr: blocked,
+    // a third of the flops of dgghrd's Givens rotations on the pencil (D, G), which were 8 % of a
+    // matting agent's compute). So Q = D^-1 Z: (D + u G)^-1 b = Z (I + u H)^-1 Z^T D^-1 b.
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) m_h(i, j) /= d[static_cast<std::size_t>(i)];
     std::vector<double> tau(static_cast<std::size_t>(std::max(1, n - 1)));
     lapack_int info = LAPACKE_dgehrd(LAPACK_ROW_MAJOR, n, 1, n, m_h.data().data(), n, tau.data());
     if (info != 0) throw NumericalError(cat("ShiftedPencil: LAPACK dgehrd failed (info ", info, ", size ", n, ")"));
@@ -220,6 +344,47 @@ ShiftedPencil::ShiftedPencil(const Matrix& g, std::span<const double> d)
         for (int j = 0; j < i - 1; ++j) m_h(i, j) = 0.0; // dgehrd keeps its reflectors there
     for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j) m_q(i, j) = m_z(i, j) / d[static_cast<std::size_t>(i)];
+}
+
+std::vector<ShiftedPencil> ShiftedPencil::batch(std::span<const Matrix> g, std::span<const double> d) {
+    for (const Matrix& m : g) check_pencil(m, d);
+    const int n = static_cast<int>(d.size());
+    std::vector<ShiftedPencil> out;
+    out.reserve(g.size());
+    if (n > largest_lane_pencil) {
+        for (const Matrix& m : g) out.emplace_back(m, d);
+        return out;
+    }
+    constexpr int lanes = hessenberg_lanes;
+    const std::size_t nn = static_cast<std::size_t>(n) * n;
+    // LaneVec's own alignment (64 bytes): unaligned, each load of a lane vector spanned two cache
+    // lines and the reduction took 6 times as long.
+    const auto a = std::make_unique_for_overwrite<LaneVec[]>(nn), z = std::make_unique_for_overwrite<LaneVec[]>(nn),
+               scratch = std::make_unique_for_overwrite<LaneVec[]>(3 * static_cast<std::size_t>(n));
+    for (std::size_t first = 0; first < g.size(); first += lanes) {
+        const int count = static_cast<int>(std::min<std::size_t>(lanes, g.size() - first));
+        // Lanes beyond the last matrix hold zeros (no reflectors; not kept).
+        if (count < lanes) std::fill_n(a.get(), nn, LaneVec{});
+        for (int l = 0; l < count; ++l) {
+            const Matrix& m = g[first + l];
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j)
+                    a[static_cast<std::size_t>(i) * n + j][l] = m(i, j) / d[static_cast<std::size_t>(i)];
+        }
+        reduce_hessenberg_lanes(n, a.get(), z.get(), scratch.get());
+        for (int l = 0; l < count; ++l) {
+            Matrix h(n, n), q(n, n), zl(n, n);
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) {
+                    const std::size_t at = static_cast<std::size_t>(i) * n + j;
+                    h(i, j) = a[at][l];
+                    zl(i, j) = z[at][l];
+                    q(i, j) = z[at][l] / d[static_cast<std::size_t>(i)];
+                }
+            out.push_back(ShiftedPencil(std::move(h), std::move(q), std::move(zl)));
+        }
+    }
+    return out;
 }
 
 namespace {
@@ -240,7 +405,6 @@ namespace {
 // stream check evaluating the probes, 31.6 -> 24.8 ms (bench_pipeline BM_SolveHg). `bad` receives
 // the shifts singular to working precision (1) or not (0). `work` holds n x n x hessenberg_lanes
 // scratch, written before it is read.
-constexpr int hessenberg_lanes = 8;
 __attribute__((target_clones("avx512f", "avx2", "default"))) void
 solve_hessenberg_lanes(const Matrix& h, const double* u, double* y, double* work, int* bad) {
     // Unaligned (std::vector's doubles); no vector crosses a call.

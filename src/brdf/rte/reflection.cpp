@@ -270,8 +270,9 @@ double Reflection::surface_lobe(double mu_i, double mu_o, double phi) const {
 double Reflection::inside(int k, double mu_air) const { return inside_layer(m_setup, k, mu_air); }
 
 Reflection::NystromOrders::NystromOrders(int orders)
-    : once(static_cast<std::size_t>(orders)), pencil(static_cast<std::size_t>(orders)),
-      minus_w(static_cast<std::size_t>(orders)) {}
+    : building(std::make_unique<std::mutex[]>(static_cast<std::size_t>((orders + block - 1) / block))),
+      ready(std::make_unique<std::atomic<bool>[]>(static_cast<std::size_t>(orders))),
+      pencil(static_cast<std::size_t>(orders)), minus_w(static_cast<std::size_t>(orders)) {}
 
 Reflection::TopBounces::TopBounces(int orders)
     : once(static_cast<std::size_t>(orders)), inverse(static_cast<std::size_t>(orders)) {}
@@ -287,27 +288,41 @@ const Matrix& Reflection::top_bounce(int m) const {
 
 Reflection::NystromOrder Reflection::nystrom(int m) const {
     NystromOrders& all = *m_nystrom;
-    std::call_once(all.once[m], [&] {
+    if (!all.ready[m].load(std::memory_order_acquire)) {
+        const int first = m / NystromOrders::block * NystromOrders::block;
+        std::lock_guard lock(all.building[m / NystromOrders::block]);
+        // The block's orders this reflection has (a copy cut to fewer orders shares the operators)
+        // and no caller has built yet.
+        std::vector<int> todo;
+        for (int k = first; k < std::min(first + NystromOrders::block, m_setup.orders); ++k)
+            if (!all.ready[k].load(std::memory_order_relaxed)) todo.push_back(k);
         const LayerSetup& ls = m_setup.layers.back();
         const Streams& s = ls.streams;
         const int n = s.size();
         const double om = ls.truncated.scaled.omega;
-        const Matrix& x = m_half[m].x;
-        const PhasePair p = phase_components(ls.truncated.scaled.beta, m, s.mu, s.mu);
-        // G = I - (w/2) P+ W - w M X W P- W: the half-node equation is (M + u G) r = rhs(u).
-        Matrix wpw(n, n);
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) wpw(i, j) = s.w[i] * p.minus(i, j) * s.w[j];
-        const Matrix xwpw = x * wpw;
-        Matrix g = Matrix::identity(n);
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) g(i, j) -= 0.5 * om * p.plus(i, j) * s.w[j] + om * s.mu[i] * xwpw(i, j);
-        all.pencil[m].emplace(g, s.mu);
-        Matrix minus_w = p.minus;
-        for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) minus_w(i, j) *= s.w[j];
-        all.minus_w[m] = std::move(minus_w);
-    });
+        std::vector<Matrix> g;
+        for (int k : todo) {
+            const PhasePair p = phase_components(ls.truncated.scaled.beta, k, s.mu, s.mu);
+            // G = I - (w/2) P+ W - w M X W P- W: the half-node equation is (M + u G) r = rhs(u).
+            Matrix wpw(n, n);
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) wpw(i, j) = s.w[i] * p.minus(i, j) * s.w[j];
+            const Matrix xwpw = m_half[k].x * wpw;
+            Matrix gk = Matrix::identity(n);
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) gk(i, j) -= 0.5 * om * p.plus(i, j) * s.w[j] + om * s.mu[i] * xwpw(i, j);
+            g.push_back(std::move(gk));
+            Matrix minus_w = p.minus;
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) minus_w(i, j) *= s.w[j];
+            all.minus_w[k] = std::move(minus_w);
+        }
+        std::vector<ShiftedPencil> pencils = ShiftedPencil::batch(g, s.mu);
+        for (std::size_t q = 0; q < todo.size(); ++q) {
+            all.pencil[todo[q]].emplace(std::move(pencils[q]));
+            all.ready[todo[q]].store(true, std::memory_order_release);
+        }
+    }
     return {*all.pencil[m], all.minus_w[m]};
 }
 

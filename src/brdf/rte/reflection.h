@@ -22,6 +22,7 @@
 #include <brdf/rte/stack.h>
 #include <brdf/rte/streams.h>
 
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -198,10 +199,13 @@ private:
     std::shared_ptr<const RoughKernelFamily> m_family;
     /// Half-space, per order: the Nystrom half-node equation (M + u G) r = rhs(u), with
     /// G = I - (w/2) P+ W - w M X W P- W, reduced once for every direction u, and P- W; built on
-    /// first use (thread-safe), shared by copies.
+    /// first use (thread-safe), shared by copies. The orders of a block are built together, their
+    /// pencils reduced side by side (ShiftedPencil::batch).
     struct NystromOrders {
+        static constexpr int block = 8;
         explicit NystromOrders(int orders);
-        std::vector<std::once_flag> once;
+        std::unique_ptr<std::mutex[]> building; ///< per block of orders
+        std::unique_ptr<std::atomic<bool>[]> ready; ///< per order: pencil and minus_w are built
         std::vector<std::optional<ShiftedPencil>> pencil;
         std::vector<Matrix> minus_w;
     };
