@@ -198,18 +198,9 @@ void LuFactor::solve(std::span<double> b) const {
 
 namespace {
 
-// The Householder reduction of `hessenberg_lanes` matrices side by side to upper Hessenberg form,
-// A = Z H Z^T (Golub and Van Loan 2013, algorithm 7.4.2; LAPACK's dgehd2 and dorg2r, unblocked):
-// a[i * n + j] holds element (i, j) of every lane's matrix and receives H (zeros below the
-// subdiagonal), z receives Z. LAPACK did the same one matrix at a time, and for the Nystrom
-// pencils' 32 x 32 (a material's orders times its wavelengths: 750 for the seed) its calls cost
-// more than their arithmetic: 44 us a pencil at 32 streams, 170 us at 64, where eight in the lanes
-// take ~5 and ~25 (bench_solver BM_PencilSetup). Each lane sees the operations of a scalar
-// reduction in the same order, so its H and Z do not depend on its neighbours or on the
-// instruction set (no contraction; the clones give identical results). A column already zero below
-// the subdiagonal gets no reflector (tau 0), as in LAPACK's dlarfg. `scratch` holds 3 n entries.
+// Matrices (reduce_hessenberg_lanes) or shifts (solve_hessenberg_lanes) side by side in vector lanes.
 constexpr int hessenberg_lanes = 8;
-// One entry of every lane's matrix; the buffers are allocated 64-byte aligned (ShiftedPencil::reduce).
+// One entry of every lane's matrix; the buffers are allocated 64-byte aligned (ShiftedPencil::batch).
 typedef double LaneVec __attribute__((vector_size(8 * hessenberg_lanes)));
 typedef long long LaneMask __attribute__((vector_size(8 * hessenberg_lanes)));
 
@@ -245,10 +236,11 @@ typedef long long LaneMask __attribute__((vector_size(8 * hessenberg_lanes)));
 // The Householder reduction of `hessenberg_lanes` matrices side by side to upper Hessenberg form,
 // A = Z H Z^T (Golub and Van Loan 2013, algorithm 7.4.2; LAPACK's dgehd2 and dorg2r, unblocked):
 // a[i * n + j] holds element (i, j) of every lane's matrix and receives H (zeros below the
-// subdiagonal), z receives Z. LAPACK (dgehrd, dorghr) did the same one matrix at a time, and for
-// the Nystrom pencils' sizes (a material's orders times its wavelengths: 750 of 32 x 32 for the
-// seed, 1,250 of 64 x 64 at "reference") its calls cost more than their arithmetic. Each lane
-// sees the operations of a scalar reduction in the same order, so its H and Z do not depend on its
+// subdiagonal), z receives Z. LAPACK (dgehrd, dorghr) does the same one matrix at a time, at the
+// Nystrom pencils' sizes (a material's orders times its wavelengths: 750 of 32 x 32 for the seed,
+// 1,250 of 64 x 64 at "reference") 3.6 times as slowly at 32 streams, 1.7 at 64, its small
+// level-2 calls mostly overhead (largest_lane_pencil has the numbers). Each lane sees the
+// operations of a scalar reduction in the same order, so its H and Z do not depend on its
 // neighbours or on the instruction set (no contraction; the clones give identical results). A
 // column already zero below the subdiagonal gets no reflector (tau 0), as in LAPACK's dlarfg.
 // `scratch` holds 3 n entries.

@@ -2,8 +2,10 @@
 // Small dense linear algebra for the per-order solvers (N up to a few hundred): row-major matrices,
 // products, LU with partial pivoting, Cholesky and the symmetric eigenproblem. Products go to BLAS
 // and factorisations to LAPACK (OpenBLAS, one thread per call: the callers run many independent
-// problems in parallel). The OpenCL kernels implement the same operations in work-group or serial
-// form (kernels/ambartsumian*.cl); they agree with these to rounding.
+// problems in parallel), except batches of small Hessenberg reductions, eight side by side in
+// vector lanes (ShiftedPencil::batch), where LAPACK's calls cost more than their arithmetic. The
+// OpenCL kernels implement the same operations in work-group or serial form
+// (kernels/ambartsumian*.cl); they agree with these to rounding.
 
 #include <cstddef>
 #include <span>
