@@ -128,10 +128,9 @@ std::optional<Resonance> locate_resonance(double m, int n, bool electric, double
     // Safeguarded Newton on F, which decreases through its root: the bracket [lo, hi] keeps
     // F(lo) > 0 > F(hi); a Newton step that leaves it is replaced by bisection. Newton converges
     // quadratically, so iterating to the rounding level of x costs one or two more evaluations and
-    // needs no width estimate. A tiny Newton step may also mean a huge F' (a pole of D_n just outside
-    // the bracket), so it counts as convergence only if F changes sign across the point.
-    const auto found = [&](double root) -> std::optional<Resonance> {
-        const double hwhm = half_width(root, n, evaluate(m, n, electric, root));
+    // needs no width estimate.
+    const auto found = [&](double root, const ModeEval& at) -> std::optional<Resonance> {
+        const double hwhm = half_width(root, n, at);
         if (!std::isfinite(hwhm) || !(hwhm > 0.0)) return std::nullopt;
         return Resonance{n, electric, root, hwhm};
     };
@@ -139,19 +138,30 @@ std::optional<Resonance> locate_resonance(double m, int n, bool electric, double
     for (int iter = 0; iter < 300; ++iter) {
         const ModeEval ev = evaluate(m, n, electric, x);
         if (!std::isfinite(ev.f)) return std::nullopt;
-        if (ev.f == 0.0) return found(x);
+        if (ev.f == 0.0) return found(x, ev);
         (ev.f > 0.0 ? lo : hi) = x;
         const double resolution = 4e-16 * x;
-        if (hi - lo <= resolution) return found(0.5 * (lo + hi));
-        const double newton = x - ev.f / ev.df;
-        double next = (ev.df < 0.0 && newton > lo && newton < hi) ? newton : 0.5 * (lo + hi);
-        if (std::abs(next - x) <= resolution) {
-            const double d = 2.0 * resolution;
-            if (evaluate(m, n, electric, x - d).f > 0.0 && evaluate(m, n, electric, x + d).f < 0.0)
-                return found(x);
-            next = 0.5 * (lo + hi);
+        if (hi - lo <= resolution) {
+            const double mid = 0.5 * (lo + hi);
+            return found(mid, evaluate(m, n, electric, mid));
         }
-        x = next;
+        const double newton = x - ev.f / ev.df;
+        if (ev.df < 0.0 && std::abs(newton - x) <= resolution) {
+            // Converged, unless F' is huge (a pole of D_n just outside the bracket): x counts as
+            // the root only if F changes sign across it. F's rounding error (~1e-14, the
+            // difference of two O(1) terms) can exceed F' times two ulps of x, so where two miss
+            // the change, 64 are tried. Either way the root is Newton's x, accurate to F's
+            // rounding error over F'. (Bisecting on instead, as once here, halved the bracket's
+            // far side down to the rounding level: 25 evaluations for a root already found.)
+            for (const double ulps : {2.0, 64.0}) {
+                const double d = ulps * resolution;
+                if (evaluate(m, n, electric, x - d).f > 0.0 && evaluate(m, n, electric, x + d).f < 0.0)
+                    return found(x, ev);
+            }
+            x = 0.5 * (lo + hi);
+            continue;
+        }
+        x = (ev.df < 0.0 && newton > lo && newton < hi) ? newton : 0.5 * (lo + hi);
     }
     return std::nullopt;
 }
