@@ -151,8 +151,8 @@ std::optional<Resonance> locate_resonance(double m, int n, bool electric, double
             // the root only if F changes sign across it. F's rounding error (~1e-14, the
             // difference of two O(1) terms) can exceed F' times two ulps of x, so where two miss
             // the change, 64 are tried. Either way the root is Newton's x, accurate to F's
-            // rounding error over F'. (Bisecting on instead, as once here, halved the bracket's
-            // far side down to the rounding level: 25 evaluations for a root already found.)
+            // rounding error over F'. Bisecting on from here would halve the bracket's far side
+            // down to the rounding level: ~25 evaluations for a root already found.
             for (const double ulps : {2.0, 64.0}) {
                 const double d = ulps * resolution;
                 if (evaluate(m, n, electric, x - d).f > 0.0 && evaluate(m, n, electric, x + d).f < 0.0)
