@@ -374,6 +374,8 @@ TEST(MieInputs, RejectsInvalidValuesNamingThem) {
 // each gets alone: every term of a, b and the absorption, for indices above and below 1, sizes from
 // the Rayleigh range to thousands of terms mixed in one batch (each lane its own term count and
 // recurrence start), a batch that is not a multiple of eight, and an absorbing index (one by one).
+// So do the efficiencies a batch sums as it makes the terms (the lanes add nothing past their own
+// terms): every one of them is efficiencies() of the sphere alone.
 TEST(MieCoefficients, BatchEqualsOneByOne) {
     std::mt19937 rng(12);
     std::uniform_real_distribution<double> decades(-6.0, 3.5);
@@ -382,13 +384,23 @@ TEST(MieCoefficients, BatchEqualsOneByOne) {
         std::vector<double> x;
         for (int i = 0; i < 29; ++i) x.push_back(std::pow(10.0, decades(rng)));
         x.push_back(x.front()); // the same sphere twice in one batch
-        std::vector<Coefficients> batch(x.size());
+        std::vector<Coefficients> batch(x.size()), with_efficiencies(x.size());
+        std::vector<Efficiencies> q(x.size());
         SeriesWork work;
         coefficients(m, x, batch, work);
+        coefficients(m, x, with_efficiencies, q, work);
         for (std::size_t i = 0; i < x.size(); ++i) {
             const Coefficients one = coefficients(m, x[i]);
             ASSERT_EQ(batch[i].size(), one.size()) << "m " << m << " x " << x[i];
             EXPECT_EQ(batch[i].x, one.x);
+            const Efficiencies alone = efficiencies(one);
+            EXPECT_EQ(q[i].qext, alone.qext) << "m " << m << " x " << x[i];
+            EXPECT_EQ(q[i].qsca, alone.qsca) << "m " << m << " x " << x[i];
+            EXPECT_EQ(q[i].qabs, alone.qabs) << "m " << m << " x " << x[i];
+            EXPECT_EQ(q[i].qback, alone.qback) << "m " << m << " x " << x[i];
+            EXPECT_EQ(q[i].g, alone.g) << "m " << m << " x " << x[i];
+            ASSERT_EQ(with_efficiencies[i].a, one.a) << "m " << m << " x " << x[i];
+            ASSERT_EQ(with_efficiencies[i].b, one.b) << "m " << m << " x " << x[i];
             for (int n = 0; n < one.size(); ++n) {
                 ASSERT_EQ(batch[i].a[n], one.a[n]) << "m " << m << " x " << x[i] << " a_" << n + 1;
                 ASSERT_EQ(batch[i].b[n], one.b[n]) << "m " << m << " x " << x[i] << " b_" << n + 1;
@@ -404,6 +416,9 @@ TEST(MieCoefficients, BatchEqualsOneByOne) {
     EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{std::nan(""), 1.0}, two, work),
                  InputError);
     EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{1.0}, two, work), InternalError);
+    std::vector<Efficiencies> one_efficiency(1);
+    EXPECT_THROW(coefficients(std::complex<double>(1.5), std::vector<double>{1.0, 2.0}, two, one_efficiency, work),
+                 InternalError);
 }
 
 } // namespace

@@ -161,9 +161,10 @@ public:
     /// at(x[i]) for every i, the coefficients into `c` (the same size), all computed at once
     /// (mie.h: a real index runs eight spheres side by side), the same bits as at() one by one.
     void at(std::span<const double> x, std::span<Coefficients> c, std::span<Sums> out) {
-        coefficients(m_m, x, c, m_series);
+        m_efficiencies.resize(x.size());
+        coefficients(m_m, x, c, m_efficiencies, m_series);
         m_evaluations += static_cast<long>(x.size());
-        for (std::size_t i = 0; i < x.size(); ++i) out[i] = weighted(c[i]);
+        for (std::size_t i = 0; i < x.size(); ++i) out[i] = weighted(x[i], m_efficiencies[i]);
     }
 
     const Coefficients& last_coefficients() const { return m_coef; }
@@ -179,9 +180,9 @@ public:
     PanelWork& panel_work() { return m_panel; }
 
 private:
-    Sums weighted(const Coefficients& c) const {
-        const Efficiencies q = efficiencies(c);
-        const double w = weight(c.x);
+    Sums weighted(const Coefficients& c) const { return weighted(c.x, efficiencies(c)); }
+    Sums weighted(double x, const Efficiencies& q) const {
+        const double w = weight(x);
         return {w * q.qext, w * q.qsca, w * q.qabs, w * q.qback, w * q.qsca * q.g};
     }
 
@@ -190,6 +191,7 @@ private:
     const SizeDistribution& m_sizes;
     Coefficients m_coef;
     SeriesWork m_series;
+    std::vector<Efficiencies> m_efficiencies; ///< at()'s, for the spheres of one call
     PanelWork m_panel;
     long m_evaluations = 0;
 };

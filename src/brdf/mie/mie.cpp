@@ -116,6 +116,43 @@ template <typename T>
     return out;
 }
 
+// The sums of the efficiencies, term by term: B&H 4.61-4.62 and, for g Qsca and the
+// backscattering, B&H pp. 120-122,
+//   g Qsca = (4/x^2) [sum n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1}) + sum (2n+1)/(n(n+1)) Re(a_n b*_n)].
+// For one sphere (T = double: efficiencies()) or eight (T = Lanes: the real series, as it makes the
+// terms), the same additions in the same order: order n's own terms, then its cross term with n + 1,
+// which the lanes add when they make order n + 1.
+template <typename T> struct EfficiencySums {
+    T sca{}, absorbed{}, asym{}, back_r{}, back_i{};
+};
+template <typename T>
+[[gnu::always_inline]] inline void add_order_terms(int n, T ar, T ai, T br, T bi, T absorption,
+                                                   EfficiencySums<T>& s) {
+    const double f = 2.0 * n + 1.0;
+    s.sca += f * (ar * ar + ai * ai + br * br + bi * bi);
+    s.absorbed += f * absorption;
+    const double sf = n % 2 ? -f : f;
+    s.back_r += sf * (ar - br);
+    s.back_i += sf * (ai - bi);
+    s.asym += f / (n * (n + 1.0)) * (ar * br + ai * bi);
+}
+// Order n's cross term with order n + 1 (primed).
+template <typename T>
+[[gnu::always_inline]] inline void add_cross_term(int n, T ar, T ai, T br, T bi, T ar1, T ai1, T br1, T bi1,
+                                                  EfficiencySums<T>& s) {
+    s.asym += n * (n + 2.0) / (n + 1.0) * (ar * ar1 + ai * ai1 + br * br1 + bi * bi1);
+}
+Efficiencies finish_efficiencies(double x, double sca, double absorbed, double asym, double back_r, double back_i) {
+    const double x2 = x * x;
+    Efficiencies q;
+    q.qsca = 2.0 * sca / x2;
+    q.qabs = 2.0 * absorbed / x2;
+    q.qext = q.qsca + q.qabs;
+    q.qback = (back_r * back_r + back_i * back_i) / x2;
+    q.g = 2.0 * asym / sca;
+    return q;
+}
+
 // coefficients() for a real index (a non-absorbing sphere), in real arithmetic: E_n(mx) and E_n(x) run in
 // one loop (two independent division chains the processor overlaps), then the terms (real_term).
 // The absorption is exactly 0.
@@ -169,14 +206,16 @@ void coefficients_real(double m, double x, int n_terms, Coefficients& out, Serie
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
 void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (&n_terms)[mie_lanes], int count,
-                             Coefficients* const (&out)[mie_lanes], double* ez, double* ex) noexcept {
-    Lanes start_z, start_x, zinv, xinv;
+                             Coefficients* const (&out)[mie_lanes], Efficiencies* const (&q)[mie_lanes], double* ez,
+                             double* ex) noexcept {
+    Lanes start_z, start_x, zinv, xinv, last;
     int top = 0, terms = 0;
     for (int l = 0; l < mie_lanes; ++l) {
         const double z = m * x[l];
         const int sz = start_index(n_terms[l], z), sx = start_index(n_terms[l], x[l]);
         start_z[l] = sz;
         start_x[l] = sx;
+        last[l] = n_terms[l];
         zinv[l] = 1.0 / z;
         xinv[l] = 1.0 / x[l];
         top = std::max({top, sz, sx});
@@ -202,6 +241,11 @@ void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (
     for (int l = 0; l < mie_lanes; ++l) sinx[l] = std::sin(x[l]), cosx[l] = std::cos(x[l]);
     Lanes psi_prev = sinx, chi_prev2 = -sinx, chi_prev = cosx;
     Lanes e_x_prev = e_x; // E_0(x)
+    // The efficiencies' sums (when asked for): a lane adds nothing past its own terms (a select,
+    // not a product: its values there are whatever the recurrences make of them).
+    EfficiencySums<Lanes> sums;
+    RealTerm<Lanes> before{};
+    const Lanes zero = splat(0.0);
     for (int n = 1; n <= terms; ++n) {
         Lanes e, e_x_n;
         std::memcpy(&e, ez + mie_lanes * n, sizeof e);
@@ -209,6 +253,16 @@ void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (
         const RealTerm<Lanes> t = real_term(n, m, minv, minv2, one_minus_m2_over_m2, xinv, e, e_x_n, e_x_prev,
                                             psi_prev, chi_prev, chi_prev2);
         e_x_prev = e_x_n;
+        if (q[0]) {
+            const auto in = splat(n) <= last;
+            const RealTerm<Lanes> kept{in ? t.a_re : zero, in ? t.a_im : zero, in ? t.b_re : zero,
+                                       in ? t.b_im : zero};
+            if (n > 1)
+                add_cross_term(n - 1, before.a_re, before.a_im, before.b_re, before.b_im, kept.a_re, kept.a_im,
+                               kept.b_re, kept.b_im, sums);
+            add_order_terms(n, kept.a_re, kept.a_im, kept.b_re, kept.b_im, zero, sums);
+            before = kept;
+        }
         for (int l = 0; l < count; ++l)
             if (n <= n_terms[l]) {
                 out[l]->a[n - 1] = Complex(t.a_re[l], t.a_im[l]);
@@ -216,6 +270,10 @@ void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (
                 out[l]->absorption[n - 1] = 0.0;
             }
     }
+    if (q[0])
+        for (int l = 0; l < count; ++l)
+            *q[l] = finish_efficiencies(x[l], sums.sca[l], sums.absorbed[l], sums.asym[l], sums.back_r[l],
+                                        sums.back_i[l]);
 }
 
 } // namespace
@@ -256,11 +314,17 @@ void coefficients(Complex m, double x, Coefficients& out) {
     coefficients(m, x, out, work);
 }
 
-void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> out, SeriesWork& work) {
-    if (x.size() != out.size())
-        throw InternalError(cat("Mie coefficients: ", x.size(), " size parameters for ", out.size(), " results"));
+// Both span forms: `q` empty for the coefficients alone.
+void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> out, std::span<Efficiencies> q,
+                  SeriesWork& work) {
+    if (x.size() != out.size() || (!q.empty() && q.size() != x.size()))
+        throw InternalError(cat("Mie coefficients: ", x.size(), " size parameters for ", out.size(), " results and ",
+                                q.size(), " efficiencies"));
     if (m.imag() != 0.0) {
-        for (std::size_t i = 0; i < x.size(); ++i) coefficients(m, x[i], out[i], work);
+        for (std::size_t i = 0; i < x.size(); ++i) {
+            coefficients(m, x[i], out[i], work);
+            if (!q.empty()) q[i] = efficiencies(out[i]);
+        }
         return;
     }
     for (double xi : x) validate(m, xi); // first: series_length casts x to int
@@ -270,12 +334,14 @@ void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> 
         double xs[mie_lanes];
         int terms[mie_lanes];
         Coefficients* dst[mie_lanes];
+        Efficiencies* sums[mie_lanes] = {};
         int most = 0;
         for (int l = 0; l < mie_lanes; ++l) {
             const std::size_t i = first + static_cast<std::size_t>(std::min(l, count - 1));
             xs[l] = x[i];
             terms[l] = series_length(x[i]);
             dst[l] = &out[i];
+            if (!q.empty()) sums[l] = &q[i];
             most = std::max(most, terms[l]);
         }
         for (int l = 0; l < count; ++l) {
@@ -288,8 +354,12 @@ void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> 
         }
         work.ez_lanes.resize(static_cast<std::size_t>(mie_lanes) * (most + 1));
         work.ex_lanes.resize(static_cast<std::size_t>(mie_lanes) * (most + 1));
-        coefficients_real_lanes(m.real(), xs, terms, count, dst, work.ez_lanes.data(), work.ex_lanes.data());
+        coefficients_real_lanes(m.real(), xs, terms, count, dst, sums, work.ez_lanes.data(), work.ex_lanes.data());
     }
+}
+
+void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> out, SeriesWork& work) {
+    coefficients(m, x, out, {}, work);
 }
 
 void coefficients(Complex m, double x, Coefficients& out, SeriesWork& work) {
@@ -356,33 +426,15 @@ Efficiencies efficiencies(const Coefficients& c) {
     // Written out in real arithmetic: std::complex products go through the C99 Annex G routine
     // (__muldc3), which made this loop as expensive as computing the coefficients.
     const int n_terms = c.size();
-    double sca = 0.0, absorbed = 0.0, asym = 0.0, back_r = 0.0, back_i = 0.0;
+    EfficiencySums<double> s;
     for (int n = 1; n <= n_terms; ++n) {
         const double ar = c.a[n - 1].real(), ai = c.a[n - 1].imag();
         const double br = c.b[n - 1].real(), bi = c.b[n - 1].imag();
-        const double f = 2.0 * n + 1.0;
-        sca += f * (ar * ar + ai * ai + br * br + bi * bi);
-        absorbed += f * c.absorption[n - 1];
-        const double sf = n % 2 ? -f : f;
-        back_r += sf * (ar - br);
-        back_i += sf * (ai - bi);
-        // g Qsca = (4/x^2) [sum n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1})
-        //                   + sum (2n+1)/(n(n+1)) Re(a_n b*_n)]        (B&H p. 120)
-        asym += f / (n * (n + 1.0)) * (ar * br + ai * bi);
-        if (n < n_terms) {
-            const double ar1 = c.a[n].real(), ai1 = c.a[n].imag();
-            const double br1 = c.b[n].real(), bi1 = c.b[n].imag();
-            asym += n * (n + 2.0) / (n + 1.0) * (ar * ar1 + ai * ai1 + br * br1 + bi * bi1);
-        }
+        add_order_terms(n, ar, ai, br, bi, c.absorption[n - 1], s);
+        if (n < n_terms)
+            add_cross_term(n, ar, ai, br, bi, c.a[n].real(), c.a[n].imag(), c.b[n].real(), c.b[n].imag(), s);
     }
-    const double x2 = c.x * c.x;
-    Efficiencies q;
-    q.qsca = 2.0 * sca / x2;
-    q.qabs = 2.0 * absorbed / x2;
-    q.qext = q.qsca + q.qabs;
-    q.qback = (back_r * back_r + back_i * back_i) / x2;
-    q.g = 2.0 * asym / sca;
-    return q;
+    return finish_efficiencies(c.x, s.sca, s.absorbed, s.asym, s.back_r, s.back_i);
 }
 
 Amplitudes amplitudes(const Coefficients& c, double mu) {

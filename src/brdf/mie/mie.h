@@ -83,6 +83,13 @@ struct Efficiencies {
 
 Efficiencies efficiencies(const Coefficients& c);
 
+/// coefficients(m, x, out, work) and efficiencies(out[i]) into q[i] for every i (x, out and q the
+/// same size), the same bits. A real index sums the efficiencies in the eight lanes as their terms
+/// are made, where the terms are still in registers and each order's factors are divided once for
+/// the eight spheres.
+void coefficients(std::complex<double> m, std::span<const double> x, std::span<Coefficients> out,
+                  std::span<Efficiencies> q, SeriesWork& work);
+
 /// Scattering amplitudes S1 (perpendicular) and S2 (parallel), B&H 4.74, dimensionless (B&H
 /// normalisation: S1(0) = S2(0) = x^2 Qext / 4 + i ...).
 struct Amplitudes {
