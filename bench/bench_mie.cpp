@@ -8,6 +8,11 @@
 //                                   accuracy asks of the radius integration (service/model.cpp).
 //   BM_SingleSphere/x               one sphere, m = 1.5, efficiencies and Legendre moments, for
 //                                   information (x = 1e4 needs 2e4 angular nodes).
+//   BM_PhaseIntensities/x           the nested rule's two kernels apart (silica in acrylic, m =
+//   BM_PhaseProjection/x            0.98): one sphere's intensities on the angular rule of its own
+//                                   series (N + 1 node pairs), and the Legendre projection of that
+//                                   rule's sums (2N + 1 moments): what a 40 um matting agent spends
+//                                   nearly all its time in, each per node and per level.
 //   BM_MattingAgent/r_eff/threads   matting agents: silica spheres (Malitson 1965) in acrylic (PMMA,
 //                                   Sultanova et al. 2009), m ~ 0.98, gamma distribution r_eff = 5 or
 //                                   40 um, v_eff = 0.1, 380..780 nm step 10 at the tolerance 1e-5 of
@@ -18,6 +23,7 @@
 #include <brdf/core/quadrature.h>
 #include <brdf/mie/ensemble.h>
 #include <brdf/mie/mie.h>
+#include <brdf/mie/phase_function.h>
 
 #include <benchmark/benchmark.h>
 
@@ -133,6 +139,26 @@ void BM_SingleSphere(benchmark::State& state) {
     state.counters["legendre_moments"] = static_cast<double>(moments);
 }
 BENCHMARK(BM_SingleSphere)->Arg(10)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond);
+
+void BM_PhaseIntensities(benchmark::State& state) {
+    const Coefficients c = coefficients({0.98, 0.0}, static_cast<double>(state.range(0)));
+    PhaseFunctionAccumulator rule(c.size());
+    for (auto _ : state) rule.add(c, 1.0);
+    state.counters["pairs"] = static_cast<double>(rule.pairs());
+}
+BENCHMARK(BM_PhaseIntensities)->Arg(500)->Arg(3000)->Unit(benchmark::kMillisecond);
+
+void BM_PhaseProjection(benchmark::State& state) {
+    const Coefficients c = coefficients({0.98, 0.0}, static_cast<double>(state.range(0)));
+    PhaseFunctionAccumulator rule(c.size());
+    rule.add(c, 1.0);
+    LegendreOptions all;
+    all.tolerance = 0.0;
+    std::size_t moments = 0;
+    for (auto _ : state) moments = rule.legendre(all).size();
+    state.counters["moments"] = static_cast<double>(moments);
+}
+BENCHMARK(BM_PhaseProjection)->Arg(500)->Arg(3000)->Unit(benchmark::kMillisecond);
 
 } // namespace
 
