@@ -45,6 +45,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string_view>
 #include <type_traits>
 
 namespace brdf::mie {
@@ -60,26 +61,32 @@ std::string format_index(Complex m) {
     return cat(m.real(), m.imag() < 0 ? "-" : "+", std::abs(m.imag()), "i");
 }
 
-// Eight spheres to a vector (coefficients_real_lanes below): GCC vector extensions, lowered to the
-// registers of each target_clones clone.
-#pragma GCC diagnostic ignored "-Wpsabi" // vectors pass only to functions inlined into the clones
+// Spheres side by side in a vector (real_lanes below): GCC vector extensions of W
+// doubles, W the width of the target's registers (8 under AVX-512, 4 under AVX2, 2 on SSE2). A wider
+// vector than the registers GCC lowers through the stack, piece by piece, and the pieces' stores
+// cannot be forwarded to the whole's loads: under AVX2 the eight-wide series took 55 % of the seed's
+// Mie (bench_mie, perf).
+#pragma GCC diagnostic ignored "-Wpsabi" // vectors pass only to functions inlined into the kernels
 
-constexpr int mie_lanes = 8;
-using Lanes = double __attribute__((vector_size(8 * mie_lanes)));
+constexpr int mie_lanes = 8; // spheres per batch; the kernels take them W at a time
+template <int W> struct LanesType { // (an alias template would drop the attribute)
+    typedef double type __attribute__((vector_size(8 * W)));
+    typedef unsigned long long bits __attribute__((vector_size(8 * W)));
+};
+template <int W> using LanesOf = typename LanesType<W>::type;
 
-[[gnu::always_inline]] inline Lanes splat(double v) { return Lanes{} + v; }
+template <int W> [[gnu::always_inline]] inline LanesOf<W> splat(double v) { return LanesOf<W>{} + v; }
 // std::abs of a double, and per lane (the sign bit cleared).
 [[gnu::always_inline]] inline double magnitude(double v) { return std::abs(v); }
-[[gnu::always_inline]] inline Lanes magnitude(Lanes v) {
-    using Bits = unsigned long long __attribute__((vector_size(8 * mie_lanes)));
-    Bits b;
+template <typename V> [[gnu::always_inline]] inline V magnitude(V v) {
+    typename LanesType<sizeof(V) / 8>::bits b;
     std::memcpy(&b, &v, sizeof b);
     b &= 0x7fffffffffffffffULL;
     std::memcpy(&v, &b, sizeof v);
     return v;
 }
 
-// Term n of a real index's upward series, for one sphere (T = double) or eight side by side (T =
+// Term n of a real index's upward series, for one sphere (T = double) or several side by side (T =
 // Lanes), the same operations in the same order: psi_n and chi_n from the two before them
 // (advanced here), E_n(x) = e_x, E_n(mx) = e, and E_{n-1}(x) = e_x_prev, which gives psi_n without
 // a division: the downward recurrence's E_{n-1} = -1 / ratio_n, ratio_n = psi_{n-1} / psi_n. Then
@@ -119,7 +126,7 @@ template <typename T>
 // The sums of the efficiencies, term by term: B&H 4.61-4.62 and, for g Qsca and the
 // backscattering, B&H pp. 120-122,
 //   g Qsca = (4/x^2) [sum n(n+2)/(n+1) Re(a_n a*_{n+1} + b_n b*_{n+1}) + sum (2n+1)/(n(n+1)) Re(a_n b*_n)].
-// For one sphere (T = double: efficiencies()) or eight (T = Lanes: the real series, as it makes the
+// For one sphere (T = double: efficiencies()) or several (T = Lanes: the real series, as it makes the
 // terms), the same additions in the same order: order n's own terms, then its cross term with n + 1,
 // which the lanes add when they make order n + 1.
 template <typename T> struct EfficiencySums {
@@ -193,24 +200,22 @@ void coefficients_real(double m, double x, int n_terms, Coefficients& out, Serie
     }
 }
 
-// coefficients_real for eight spheres of one index at once, sphere l in lane l: every operation of
+// coefficients_real for W spheres of one index at once, sphere l in lane l: every operation of
 // coefficients_real element by element and in its order (the upward series is the same real_term),
-// so each sphere's coefficients are its own bits; where a lane's sphere has fewer
-// terms or starts its recurrence lower, the lane's values are kept (select) or not stored. A
-// sphere's two downward recurrences are chains of divisions, each waiting for the one before: one
-// sphere at a time left the divider mostly idle; eight chains side by side keep it busy. Nothing
-// here allocates or throws (GCC 12 takes a target_clones function for one that does not throw and
-// skips its callers' cleanups: linalg.cpp): the caller sizes `out` and the lanes' E_n storage,
-// ez and ex, (terms + 1) x 8 values each.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (&n_terms)[mie_lanes], int count,
-                             Coefficients* const (&out)[mie_lanes], Efficiencies* const (&q)[mie_lanes], double* ez,
-                             double* ex) noexcept {
+// so each sphere's coefficients are its own bits, whatever W and whichever spheres share its
+// vector; where a lane's sphere has fewer terms or starts its recurrence lower, the lane's values
+// are kept (select) or not stored. A sphere's two downward recurrences are chains of divisions,
+// each waiting for the one before: one sphere at a time left the divider mostly idle; W chains side
+// by side keep it busy. Nothing here allocates or throws: the caller sizes `out` and the lanes'
+// E_n storage, ez and ex, (terms + 1) x W values each.
+template <int W>
+[[gnu::always_inline]] inline void real_lanes(double m, const double* x, const int* n_terms, int count,
+                                              Coefficients* const* out, Efficiencies* const* q, double* ez,
+                                              double* ex) noexcept {
+    using Lanes = LanesOf<W>;
     Lanes start_z, start_x, zinv, xinv, last;
     int top = 0, terms = 0;
-    for (int l = 0; l < mie_lanes; ++l) {
+    for (int l = 0; l < W; ++l) {
         const double z = m * x[l];
         const int sz = start_index(n_terms[l], z), sx = start_index(n_terms[l], x[l]);
         start_z[l] = sz;
@@ -221,16 +226,16 @@ void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (
         top = std::max({top, sz, sx});
         terms = std::max(terms, n_terms[l]);
     }
-    Lanes e_z = splat(0.0), e_x = splat(0.0);
+    Lanes e_z = splat<W>(0.0), e_x = splat<W>(0.0);
     for (int n = top; n >= 1; --n) {
-        const Lanes order = splat(2.0 * n + 1.0), at = splat(n);
+        const Lanes order = splat<W>(2.0 * n + 1.0), at = splat<W>(n);
         Lanes ratio_z = order * zinv + e_z;
-        ratio_z = ratio_z == 0.0 ? splat(1e-300) : ratio_z;
+        ratio_z = ratio_z == 0.0 ? splat<W>(1e-300) : ratio_z;
         Lanes ratio_x = order * xinv + e_x;
-        ratio_x = ratio_x == 0.0 ? splat(1e-300) : ratio_x;
+        ratio_x = ratio_x == 0.0 ? splat<W>(1e-300) : ratio_x;
         if (n <= terms) { // read back only where n <= the lane's own terms (< its starts)
-            std::memcpy(ez + mie_lanes * n, &e_z, sizeof e_z);
-            std::memcpy(ex + mie_lanes * n, &e_x, sizeof e_x);
+            std::memcpy(ez + W * n, &e_z, sizeof e_z);
+            std::memcpy(ex + W * n, &e_x, sizeof e_x);
         }
         e_z = at <= start_z ? -1.0 / ratio_z : e_z;
         e_x = at <= start_x ? -1.0 / ratio_x : e_x;
@@ -238,23 +243,23 @@ void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (
     const double minv = 1.0 / m, minv2 = minv * minv;
     const double one_minus_m2_over_m2 = (1.0 - m) * (1.0 + m) * minv2;
     Lanes sinx, cosx;
-    for (int l = 0; l < mie_lanes; ++l) sinx[l] = std::sin(x[l]), cosx[l] = std::cos(x[l]);
+    for (int l = 0; l < W; ++l) sinx[l] = std::sin(x[l]), cosx[l] = std::cos(x[l]);
     Lanes psi_prev = sinx, chi_prev2 = -sinx, chi_prev = cosx;
     Lanes e_x_prev = e_x; // E_0(x)
     // The efficiencies' sums (when asked for): a lane adds nothing past its own terms (a select,
     // not a product: its values there are whatever the recurrences make of them).
     EfficiencySums<Lanes> sums;
     RealTerm<Lanes> before{};
-    const Lanes zero = splat(0.0);
+    const Lanes zero = splat<W>(0.0);
     for (int n = 1; n <= terms; ++n) {
         Lanes e, e_x_n;
-        std::memcpy(&e, ez + mie_lanes * n, sizeof e);
-        std::memcpy(&e_x_n, ex + mie_lanes * n, sizeof e_x_n);
+        std::memcpy(&e, ez + W * n, sizeof e);
+        std::memcpy(&e_x_n, ex + W * n, sizeof e_x_n);
         const RealTerm<Lanes> t = real_term(n, m, minv, minv2, one_minus_m2_over_m2, xinv, e, e_x_n, e_x_prev,
                                             psi_prev, chi_prev, chi_prev2);
         e_x_prev = e_x_n;
         if (q[0]) {
-            const auto in = splat(n) <= last;
+            const auto in = splat<W>(n) <= last;
             const RealTerm<Lanes> kept{in ? t.a_re : zero, in ? t.a_im : zero, in ? t.b_re : zero,
                                        in ? t.b_im : zero};
             if (n > 1)
@@ -274,6 +279,56 @@ void coefficients_real_lanes(double m, const double (&x)[mie_lanes], const int (
         for (int l = 0; l < count; ++l)
             *q[l] = finish_efficiencies(x[l], sums.sca[l], sums.absorbed[l], sums.asym[l], sums.back_r[l],
                                         sums.back_i[l]);
+}
+
+/// A batch of mie_lanes spheres (`count` of them real, the lanes past it repeating the last), W at a
+/// time.
+template <int W>
+[[gnu::always_inline]] inline void real_batch(double m, const double (&x)[mie_lanes], const int (&n_terms)[mie_lanes],
+                                              int count, Coefficients* const (&out)[mie_lanes],
+                                              Efficiencies* const (&q)[mie_lanes], double* ez, double* ex) noexcept {
+    for (int first = 0; first < count; first += W)
+        real_lanes<W>(m, x + first, n_terms + first, std::min(W, count - first), out + first, q + first, ez, ex);
+}
+
+// One kernel per instruction set, picked once at run time; the same bits from each (above), since
+// this file is compiled without contraction (no FMA).
+using RealBatch = void (*)(double, const double (&)[mie_lanes], const int (&)[mie_lanes], int,
+                           Coefficients* const (&)[mie_lanes], Efficiencies* const (&)[mie_lanes], double*,
+                           double*) noexcept;
+void real_batch_baseline(double m, const double (&x)[mie_lanes], const int (&n_terms)[mie_lanes], int count,
+                         Coefficients* const (&out)[mie_lanes], Efficiencies* const (&q)[mie_lanes], double* ez,
+                         double* ex) noexcept {
+    real_batch<2>(m, x, n_terms, count, out, q, ez, ex);
+}
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2"))) void real_batch_avx2(double m, const double (&x)[mie_lanes],
+                                                     const int (&n_terms)[mie_lanes], int count,
+                                                     Coefficients* const (&out)[mie_lanes],
+                                                     Efficiencies* const (&q)[mie_lanes], double* ez,
+                                                     double* ex) noexcept {
+    real_batch<4>(m, x, n_terms, count, out, q, ez, ex);
+}
+__attribute__((target("avx512f"))) void real_batch_avx512(double m, const double (&x)[mie_lanes],
+                                                         const int (&n_terms)[mie_lanes], int count,
+                                                         Coefficients* const (&out)[mie_lanes],
+                                                         Efficiencies* const (&q)[mie_lanes], double* ez,
+                                                         double* ex) noexcept {
+    real_batch<8>(m, x, n_terms, count, out, q, ez, ex);
+}
+#endif
+/// The set series_kernels() names (phase_function.h: the CPU's widest, or the narrower one that
+/// BRDF_MIE_KERNELS asks for, so that the tests run each set's lanes on one machine).
+RealBatch real_batch_kernel() {
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+    static const RealBatch kernel = [] {
+        const std::string_view set = series_kernels();
+        return set == "avx512-fma" ? real_batch_avx512 : set == "avx2-fma" ? real_batch_avx2 : real_batch_baseline;
+    }();
+    return kernel;
+#else
+    return real_batch_baseline;
+#endif
 }
 
 } // namespace
@@ -354,7 +409,7 @@ void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> 
         }
         work.ez_lanes.resize(static_cast<std::size_t>(mie_lanes) * (most + 1));
         work.ex_lanes.resize(static_cast<std::size_t>(mie_lanes) * (most + 1));
-        coefficients_real_lanes(m.real(), xs, terms, count, dst, sums, work.ez_lanes.data(), work.ex_lanes.data());
+        real_batch_kernel()(m.real(), xs, terms, count, dst, sums, work.ez_lanes.data(), work.ex_lanes.data());
     }
 }
 

@@ -24,7 +24,8 @@ namespace brdf::mie {
 
 /// Which compiled set of the series and projection kernels this CPU runs ("avx512-fma", "avx2-fma"
 /// or "baseline"; the environment variable BRDF_MIE_KERNELS may name a narrower one): the sets
-/// round differently (FMA or not), so whatever stores results across runs keys them by it.
+/// round differently (FMA or not), so whatever stores results across runs keys them by it. The
+/// real-index coefficients' lanes (mie.cpp) follow the same choice, with the same bits in each.
 const char* series_kernels();
 
 class PhaseFunctionAccumulator {
