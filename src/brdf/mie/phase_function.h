@@ -73,7 +73,8 @@ private:
     std::vector<double> m_weight; ///< their Gauss weights
     std::vector<double> m_plus;   ///< accumulated I(+mu_j)
     std::vector<double> m_minus;  ///< accumulated I(-mu_j)
-    std::vector<double> m_recurrence; ///< per order: c_n, (2n+1)/n, (n+1)/n, unused
+    static constexpr std::size_t recurrence_stride = 5;
+    std::vector<double> m_recurrence; ///< per order: c_n, n c_n, (n+2) c_{n+1}, (2n+1)/n, (n+1)/n
     std::vector<double> m_work;       ///< add()'s working storage for accumulate()
 };
 
