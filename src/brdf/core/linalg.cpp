@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <memory>
 #include <mutex>
+#include <string_view>
 #include <utility>
 
 #include <cblas.h>
@@ -198,16 +200,25 @@ void LuFactor::solve(std::span<double> b) const {
 
 namespace {
 
-// Matrices (reduce_hessenberg_lanes) or shifts (solve_hessenberg_lanes) side by side in vector lanes.
-constexpr int hessenberg_lanes = 8;
-// One entry of every lane's matrix; the buffers are allocated 64-byte aligned (ShiftedPencil::batch).
-typedef double LaneVec __attribute__((vector_size(8 * hessenberg_lanes)));
-typedef long long LaneMask __attribute__((vector_size(8 * hessenberg_lanes)));
+// Matrices (reduce_hessenberg_lanes) or shifts (solve_hessenberg_lanes) side by side in vector lanes,
+// W of them: as wide as the target's registers (8 doubles under AVX-512, 4 under AVX2, 2 on SSE2).
+// A vector wider than the registers GCC lowers through the stack piece by piece (scalar compares and
+// selects, stores that cannot be forwarded to the whole's loads): with eight lanes under AVX2 these
+// two took 10 % of the seed's CPU time, against 3 % under AVX-512 (perf).
+constexpr int max_hessenberg_lanes = 8;
+template <int W> struct HessenbergLanes { // (an alias template would drop the attributes)
+    typedef double vec __attribute__((vector_size(8 * W)));
+    typedef long long mask __attribute__((vector_size(8 * W)));
+    // Unaligned (std::vector's doubles); no vector crosses a call.
+    typedef double unaligned_vec __attribute__((vector_size(8 * W), aligned(8)));
+    typedef long long unaligned_mask __attribute__((vector_size(8 * W), aligned(8)));
+};
 
 // M(r, c) -= tau v_r (v^T M)(c) for rows r >= k + 1 and columns c >= c0 of the n x n lanes matrix m:
 // the reflector from the left. v^T M is summed four columns at a time in registers (each column's
 // sum over the rows in order), where a sum kept in memory and updated row by row had made every
 // step a load, an add and a store.
+template <typename LaneVec>
 [[gnu::always_inline]] inline void reflect_rows(int n, int k, int c0, LaneVec* m, const LaneVec* v, const LaneVec& tau,
                                                 LaneVec* w) {
     int j = c0;
@@ -233,20 +244,23 @@ typedef long long LaneMask __attribute__((vector_size(8 * hessenberg_lanes)));
     }
 }
 
-// The Householder reduction of `hessenberg_lanes` matrices side by side to upper Hessenberg form,
-// A = Z H Z^T (Golub and Van Loan 2013, algorithm 7.4.2; LAPACK's dgehd2 and dorg2r, unblocked):
-// a[i * n + j] holds element (i, j) of every lane's matrix and receives H (zeros below the
-// subdiagonal), z receives Z. LAPACK (dgehrd, dorghr) does the same one matrix at a time, at the
+// The Householder reduction of W matrices side by side to upper Hessenberg form, A = Z H Z^T (Golub and Van Loan 2013, algorithm 7.4.2; LAPACK's dgehd2 and dorg2r, unblocked):
+// a[(i * n + j) W + l] holds element (i, j) of lane l's matrix and receives H (zeros below the
+// subdiagonal), z receives Z; both 8 W-byte aligned. LAPACK (dgehrd, dorghr) does the same one matrix at a time, at the
 // Nystrom pencils' sizes (a material's orders times its wavelengths: 750 of 32 x 32 for the seed,
 // 1,250 of 64 x 64 at "reference") 3.6 times as slowly at 32 streams, 1.7 at 64, its small
 // level-2 calls mostly overhead (largest_lane_pencil has the numbers). Each lane sees the
 // operations of a scalar reduction in the same order, so its H and Z do not depend on its
 // neighbours or on the instruction set (no contraction; the clones give identical results). A
 // column already zero below the subdiagonal gets no reflector (tau 0), as in LAPACK's dlarfg.
-// `scratch` holds 3 n entries.
-__attribute__((target_clones("avx512f", "avx2", "default"))) void
-reduce_hessenberg_lanes(int n, LaneVec* a, LaneVec* z, LaneVec* scratch) {
-    LaneVec* const tau = scratch;
+// `scratch` holds 3 n W doubles, aligned alike.
+template <int W>
+[[gnu::always_inline]] inline void reduce_hessenberg_lanes(int n, double* a_lanes, double* z_lanes, double* scratch_lanes) {
+    using LaneVec = typename HessenbergLanes<W>::vec;
+    using LaneMask = typename HessenbergLanes<W>::mask;
+    LaneVec* const a = reinterpret_cast<LaneVec*>(a_lanes);
+    LaneVec* const z = reinterpret_cast<LaneVec*>(z_lanes);
+    LaneVec* const tau = reinterpret_cast<LaneVec*>(scratch_lanes);
     LaneVec* const w = tau + n; // v^T A
     LaneVec* const v = w + n;   // the reflector, v[k + 1] = 1
     const LaneVec zero = {}, one = zero + 1.0;
@@ -258,7 +272,7 @@ reduce_hessenberg_lanes(int n, LaneVec* a, LaneVec* z, LaneVec* scratch) {
         for (int i = k + 2; i < n; ++i) tail += a[i * n + k] * a[i * n + k];
         const LaneMask none = tail == 0.0;
         LaneVec norm;
-        for (int l = 0; l < hessenberg_lanes; ++l) norm[l] = std::sqrt(alpha[l] * alpha[l] + tail[l]);
+        for (int l = 0; l < W; ++l) norm[l] = std::sqrt(alpha[l] * alpha[l] + tail[l]);
         const LaneVec beta = alpha >= 0.0 ? -norm : norm;
         const LaneVec t = none ? zero : (beta - alpha) / beta;
         const LaneVec scale = none ? zero : one / (alpha - beta);
@@ -297,6 +311,128 @@ reduce_hessenberg_lanes(int n, LaneVec* a, LaneVec* z, LaneVec* scratch) {
     for (int i = 2; i < n; ++i)
         for (int j = 0; j + 1 < i; ++j) a[i * n + j] = zero;
 }
+
+// x = (I + u H)^-1 b for the upper Hessenberg H and W shifts side by side, in place: y[i W + l] is
+// row i of shift l's right-hand side, u[l] its shift.
+// Gaussian elimination with a pivot chosen per shift from two adjacent rows, then back substitution
+// by columns: every shift sees the operations of a scalar solve in the same order, so its answer
+// does not depend on its neighbours or on the instruction set (no contraction anywhere,
+// cmake/BrdfWarnings.cmake: the clones give identical results). One vector of GCC's per matrix
+// entry holds it for every shift: the pivots' row swaps are blends (plain loops over the lanes
+// compiled to a branch per lane, a third of the time); each row of I + u H is made as the
+// elimination reaches it, in the slot where the factor's row will be, so a step reads what the last
+// one wrote instead of the whole matrix made first; and the back substitution subtracts each
+// solved unknown from the rows above it, independent updates, where each row's sum of products had
+// waited on every subtraction in turn. A table grid's 181 shifts at 64 streams: 0.72 -> 0.56 ms
+// (bench_solver BM_PencilShifts, with the products around it); the HG half-space's solve, its
+// stream check evaluating the probes, 31.6 -> 24.8 ms (bench_pipeline BM_SolveHg). `bad` receives
+// the shifts singular to working precision (1) or not (0). `work` holds n x (n + 1) x W
+// scratch, written before it is read.
+template <int W>
+[[gnu::always_inline]] inline void solve_hessenberg_lanes(const Matrix& h, const double* u, double* y, double* work,
+                                                          int* bad) {
+    using Vec = typename HessenbergLanes<W>::unaligned_vec;
+    using Mask = typename HessenbergLanes<W>::unaligned_mask;
+    const int n = h.rows();
+    // Row k of the triangular factor U at a[k * stride + j], j >= k. The rows of I + u H are made as
+    // the elimination reaches them: at step k, row k + 1's slot receives what row k's pivot leaves of
+    // the other row (the next step's candidate), so every step reads the row the last one wrote.
+    // Rows one vector longer than n: at 64 streams rows of n vectors lie 4 KiB apart, and each
+    // load from row k then waited on the store to the same column of row k + 1 (the CPU compares
+    // only an address's low 12 bits at first: 4K aliasing). BM_PencilShifts at 64 streams 410-623
+    // -> 441 us, at 128 1015-2006 -> 1050 us (the unpadded rows' time varied from run to run), HG's
+    // grids (BM_PrepareFillHg) 9.5 -> 7.2 ms; the same answers.
+    const int stride = n + 1;
+    Vec* const a = reinterpret_cast<Vec*>(work);
+    Vec* const x = reinterpret_cast<Vec*>(y);
+    const Vec shift = *reinterpret_cast<const Vec*>(u);
+    Mask singular = {};
+    for (int j = 0; j < n; ++j) a[j] = (j == 0 ? 1.0 : 0.0) + shift * h(0, j);
+    for (int k = 0; k + 1 < n; ++k) {
+        Vec* const top = a + k * stride;         // the candidate from above (row 0 at k = 0)
+        Vec* const below = a + (k + 1) * stride; // row k + 1 of I + u H (H: from column k on)
+        const double* const next = h.data().data() + static_cast<std::size_t>(k + 1) * n; // row k + 1 of H
+        const Vec t = top[k], b = shift * next[k]; // (k + 1, k): off the diagonal
+        const Mask swap = (b < 0.0 ? -b : b) > (t < 0.0 ? -t : t); // |b| > |t|, false for NaN
+        const Vec pivot = swap ? b : t, other = swap ? t : b;
+        top[k] = pivot;
+        const Vec p = x[k], q = x[k + 1];
+        x[k] = swap ? q : p;
+        x[k + 1] = swap ? p : q;
+        // a zero below the pivot leaves the row as it is (factor 0), as the scalar solve skips it
+        const Mask skip = other == 0.0;
+        singular |= ~skip & (pivot == 0.0);
+        const Vec factor = skip ? Vec{} : other / pivot;
+        for (int j = k + 1; j < n; ++j) {
+            const Vec tj = top[j], bj = (j == k + 1 ? 1.0 : 0.0) + shift * next[j];
+            const Vec uj = swap ? bj : tj;
+            top[j] = uj;
+            below[j] = (swap ? tj : bj) - factor * uj;
+        }
+        x[k + 1] -= factor * x[k];
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        const Vec pivot = a[i * stride + i];
+        const Vec xi = x[i] / pivot;
+        singular |= ~(pivot != 0.0) | ~(xi - xi == 0.0); // a zero pivot, or an infinite or NaN answer
+        x[i] = xi;
+        for (int k = 0; k < i; ++k) x[k] -= a[k * stride + i] * xi;
+    }
+    for (int l = 0; l < W; ++l) bad[l] = singular[l] != 0;
+}
+
+// One pair of kernels per instruction set, picked once at run time: every lane sees a scalar
+// reduction's or solve's operations in the same order and nothing is contracted
+// (cmake/BrdfWarnings.cmake), so each set gives the same bits (LinalgHessenbergLanes tests).
+struct HessenbergKernels {
+    int lanes;
+    void (*reduce)(int n, double* a, double* z, double* scratch);
+    void (*solve)(const Matrix& h, const double* u, double* y, double* work, int* bad);
+};
+void reduce_baseline(int n, double* a, double* z, double* scratch) { reduce_hessenberg_lanes<2>(n, a, z, scratch); }
+void solve_baseline(const Matrix& h, const double* u, double* y, double* work, int* bad) {
+    solve_hessenberg_lanes<2>(h, u, y, work, bad);
+}
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2"))) void reduce_avx2(int n, double* a, double* z, double* scratch) {
+    reduce_hessenberg_lanes<4>(n, a, z, scratch);
+}
+__attribute__((target("avx2"))) void solve_avx2(const Matrix& h, const double* u, double* y, double* work, int* bad) {
+    solve_hessenberg_lanes<4>(h, u, y, work, bad);
+}
+__attribute__((target("avx512f"))) void reduce_avx512(int n, double* a, double* z, double* scratch) {
+    reduce_hessenberg_lanes<8>(n, a, z, scratch);
+}
+__attribute__((target("avx512f"))) void solve_avx512(const Matrix& h, const double* u, double* y, double* work,
+                                                     int* bad) {
+    solve_hessenberg_lanes<8>(h, u, y, work, bad);
+}
+#endif
+const HessenbergKernels& hessenberg_kernels() {
+    static const HessenbergKernels kernels = []() -> HessenbergKernels {
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+        const char* wanted = std::getenv("BRDF_LINALG_LANES"); // "baseline" or "avx2": the tests' narrower sets
+        const std::string_view name = wanted ? wanted : "";
+        if (name != "baseline") {
+            if (__builtin_cpu_supports("avx512f") && name != "avx2") return {8, reduce_avx512, solve_avx512};
+            if (__builtin_cpu_supports("avx2")) return {4, reduce_avx2, solve_avx2};
+        }
+#endif
+        return {2, reduce_baseline, solve_baseline};
+    }();
+    return kernels;
+}
+
+/// Doubles aligned for any lane vector, uninitialised.
+struct alignas(8 * max_hessenberg_lanes) LaneBlock {
+    double v[max_hessenberg_lanes];
+};
+struct AlignedDoubles {
+    explicit AlignedDoubles(std::size_t count)
+        : blocks(std::make_unique_for_overwrite<LaneBlock[]>((count + max_hessenberg_lanes - 1) / max_hessenberg_lanes)) {}
+    double* get() { return blocks[0].v; }
+    std::unique_ptr<LaneBlock[]> blocks;
+};
 
 // The checks common to both reductions: a square G of D's size, D invertible.
 void check_pencil(const Matrix& g, std::span<const double> d) {
@@ -347,31 +483,31 @@ std::vector<ShiftedPencil> ShiftedPencil::batch(std::span<const Matrix> g, std::
         for (const Matrix& m : g) out.emplace_back(m, d);
         return out;
     }
-    constexpr int lanes = hessenberg_lanes;
+    const HessenbergKernels& kernels = hessenberg_kernels();
+    const int lanes = kernels.lanes;
     const std::size_t nn = static_cast<std::size_t>(n) * n;
-    // LaneVec's own alignment (64 bytes): unaligned, each load of a lane vector spanned two cache
-    // lines and the reduction took 6 times as long.
-    const auto a = std::make_unique_for_overwrite<LaneVec[]>(nn), z = std::make_unique_for_overwrite<LaneVec[]>(nn),
-               scratch = std::make_unique_for_overwrite<LaneVec[]>(3 * static_cast<std::size_t>(n));
+    // Aligned for the lane vectors: unaligned, each load of a lane vector spanned two cache lines
+    // and the reduction took 6 times as long.
+    AlignedDoubles a(nn * lanes), z(nn * lanes), scratch(3 * static_cast<std::size_t>(n) * lanes);
     for (std::size_t first = 0; first < g.size(); first += lanes) {
         const int count = static_cast<int>(std::min<std::size_t>(lanes, g.size() - first));
         // Lanes beyond the last matrix hold zeros (no reflectors; not kept).
-        if (count < lanes) std::fill_n(a.get(), nn, LaneVec{});
+        if (count < lanes) std::fill_n(a.get(), nn * lanes, 0.0);
         for (int l = 0; l < count; ++l) {
             const Matrix& m = g[first + l];
             for (int i = 0; i < n; ++i)
                 for (int j = 0; j < n; ++j)
-                    a[static_cast<std::size_t>(i) * n + j][l] = m(i, j) / d[static_cast<std::size_t>(i)];
+                    a.get()[(static_cast<std::size_t>(i) * n + j) * lanes + l] = m(i, j) / d[static_cast<std::size_t>(i)];
         }
-        reduce_hessenberg_lanes(n, a.get(), z.get(), scratch.get());
+        kernels.reduce(n, a.get(), z.get(), scratch.get());
         for (int l = 0; l < count; ++l) {
             Matrix h(n, n), q(n, n), zl(n, n);
             for (int i = 0; i < n; ++i)
                 for (int j = 0; j < n; ++j) {
-                    const std::size_t at = static_cast<std::size_t>(i) * n + j;
-                    h(i, j) = a[at][l];
-                    zl(i, j) = z[at][l];
-                    q(i, j) = z[at][l] / d[static_cast<std::size_t>(i)];
+                    const std::size_t at = (static_cast<std::size_t>(i) * n + j) * lanes + l;
+                    h(i, j) = a.get()[at];
+                    zl(i, j) = z.get()[at];
+                    q(i, j) = z.get()[at] / d[static_cast<std::size_t>(i)];
                 }
             out.push_back(ShiftedPencil(std::move(h), std::move(q), std::move(zl)));
         }
@@ -379,78 +515,6 @@ std::vector<ShiftedPencil> ShiftedPencil::batch(std::span<const Matrix> g, std::
     return out;
 }
 
-namespace {
-
-// x = (I + u H)^-1 b for the upper Hessenberg H and `hessenberg_lanes` shifts side by side, in
-// place: y[i * hessenberg_lanes + l] is row i of shift l's right-hand side, u[l] its shift.
-// Gaussian elimination with a pivot chosen per shift from two adjacent rows, then back substitution
-// by columns: every shift sees the operations of a scalar solve in the same order, so its answer
-// does not depend on its neighbours or on the instruction set (no contraction anywhere,
-// cmake/BrdfWarnings.cmake: the clones give identical results). One vector of GCC's per matrix
-// entry holds it for every shift: the pivots' row swaps are blends (plain loops over the lanes
-// compiled to a branch per lane, a third of the time); each row of I + u H is made as the
-// elimination reaches it, in the slot where the factor's row will be, so a step reads what the last
-// one wrote instead of the whole matrix made first; and the back substitution subtracts each
-// solved unknown from the rows above it, independent updates, where each row's sum of products had
-// waited on every subtraction in turn. A table grid's 181 shifts at 64 streams: 0.72 -> 0.56 ms
-// (bench_solver BM_PencilShifts, with the products around it); the HG half-space's solve, its
-// stream check evaluating the probes, 31.6 -> 24.8 ms (bench_pipeline BM_SolveHg). `bad` receives
-// the shifts singular to working precision (1) or not (0). `work` holds n x n x hessenberg_lanes
-// scratch, written before it is read.
-__attribute__((target_clones("avx512f", "avx2", "default"))) void
-solve_hessenberg_lanes(const Matrix& h, const double* u, double* y, double* work, int* bad) {
-    // Unaligned (std::vector's doubles); no vector crosses a call.
-    typedef double Vec __attribute__((vector_size(8 * hessenberg_lanes), aligned(8)));
-    typedef long long Mask __attribute__((vector_size(8 * hessenberg_lanes), aligned(8)));
-    const int n = h.rows();
-    // Row k of the triangular factor U at a[k * stride + j], j >= k. The rows of I + u H are made as
-    // the elimination reaches them: at step k, row k + 1's slot receives what row k's pivot leaves of
-    // the other row (the next step's candidate), so every step reads the row the last one wrote.
-    // Rows one vector longer than n: at 64 streams rows of n vectors lie 4 KiB apart, and each
-    // load from row k then waited on the store to the same column of row k + 1 (the CPU compares
-    // only an address's low 12 bits at first: 4K aliasing). BM_PencilShifts at 64 streams 410-623
-    // -> 441 us, at 128 1015-2006 -> 1050 us (the unpadded rows' time varied from run to run), HG's
-    // grids (BM_PrepareFillHg) 9.5 -> 7.2 ms; the same answers.
-    const int stride = n + 1;
-    Vec* const a = reinterpret_cast<Vec*>(work);
-    Vec* const x = reinterpret_cast<Vec*>(y);
-    const Vec shift = *reinterpret_cast<const Vec*>(u);
-    Mask singular = {};
-    for (int j = 0; j < n; ++j) a[j] = (j == 0 ? 1.0 : 0.0) + shift * h(0, j);
-    for (int k = 0; k + 1 < n; ++k) {
-        Vec* const top = a + k * stride;         // the candidate from above (row 0 at k = 0)
-        Vec* const below = a + (k + 1) * stride; // row k + 1 of I + u H (H: from column k on)
-        const double* const next = h.data().data() + static_cast<std::size_t>(k + 1) * n; // row k + 1 of H
-        const Vec t = top[k], b = shift * next[k]; // (k + 1, k): off the diagonal
-        const Mask swap = (b < 0.0 ? -b : b) > (t < 0.0 ? -t : t); // |b| > |t|, false for NaN
-        const Vec pivot = swap ? b : t, other = swap ? t : b;
-        top[k] = pivot;
-        const Vec p = x[k], q = x[k + 1];
-        x[k] = swap ? q : p;
-        x[k + 1] = swap ? p : q;
-        // a zero below the pivot leaves the row as it is (factor 0), as the scalar solve skips it
-        const Mask skip = other == 0.0;
-        singular |= ~skip & (pivot == 0.0);
-        const Vec factor = skip ? Vec{} : other / pivot;
-        for (int j = k + 1; j < n; ++j) {
-            const Vec tj = top[j], bj = (j == k + 1 ? 1.0 : 0.0) + shift * next[j];
-            const Vec uj = swap ? bj : tj;
-            top[j] = uj;
-            below[j] = (swap ? tj : bj) - factor * uj;
-        }
-        x[k + 1] -= factor * x[k];
-    }
-    for (int i = n - 1; i >= 0; --i) {
-        const Vec pivot = a[i * stride + i];
-        const Vec xi = x[i] / pivot;
-        singular |= ~(pivot != 0.0) | ~(xi - xi == 0.0); // a zero pivot, or an infinite or NaN answer
-        x[i] = xi;
-        for (int k = 0; k < i; ++k) x[k] -= a[k * stride + i] * xi;
-    }
-    for (int l = 0; l < hessenberg_lanes; ++l) bad[l] = singular[l] != 0;
-}
-
-} // namespace
 
 void ShiftedPencil::solve(double u, std::span<double> b) const {
     Matrix column(size(), 1);
@@ -470,20 +534,21 @@ void ShiftedPencil::solve(std::span<const double> u, Matrix& b) const {
     Matrix y;
     gemm(m_q, true, b, false, y);
     Matrix yt = transpose(y); // one shift per row (the product with Z below as before)
-    constexpr int lanes = hessenberg_lanes;
-    // Scratch every solve writes before it reads (n x (n + 1) x 8: 266 KB at 64 streams), not zeroed
-    // first.
+    const HessenbergKernels& kernels = hessenberg_kernels();
+    const int lanes = kernels.lanes;
+    // Scratch every solve writes before it reads (n x (n + 1) x lanes: 266 KB at 64 streams and
+    // eight lanes), not zeroed first.
     const auto work = std::make_unique_for_overwrite<double[]>(static_cast<std::size_t>(n) * (n + 1) * lanes);
     std::vector<double> group(static_cast<std::size_t>(n) * lanes);
     for (int e0 = 0; e0 < k; e0 += lanes) {
         const int count = std::min(lanes, k - e0);
-        double shift[lanes];
+        double shift[max_hessenberg_lanes];
         for (int l = 0; l < lanes; ++l) shift[l] = u[static_cast<std::size_t>(e0 + std::min(l, count - 1))];
         for (int i = 0; i < n; ++i)
             for (int l = 0; l < lanes; ++l)
                 group[static_cast<std::size_t>(i) * lanes + l] = yt(e0 + std::min(l, count - 1), i);
-        int bad[lanes];
-        solve_hessenberg_lanes(m_h, shift, group.data(), work.get(), bad);
+        int bad[max_hessenberg_lanes];
+        kernels.solve(m_h, shift, group.data(), work.get(), bad);
         for (int l = 0; l < count; ++l)
             if (bad[l]) throw NumericalError(cat("ShiftedPencil: singular at u = ", shift[l], " (size ", n, ")"));
         for (int i = 0; i < n; ++i)

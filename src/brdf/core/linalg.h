@@ -72,7 +72,7 @@ private:
 class ShiftedPencil {
 public:
     ShiftedPencil(const Matrix& g, std::span<const double> d);
-    /// The pencils (D + u G_k) of one D: up to 96 x 96 reduced eight at a time in vector lanes
+    /// The pencils (D + u G_k) of one D: up to 96 x 96 reduced several at a time in vector lanes
     /// (each pencil's result the same whatever its neighbours; LAPACK, as the constructor, beyond).
     static std::vector<ShiftedPencil> batch(std::span<const Matrix> g, std::span<const double> d);
     /// x = (D + u G)^-1 b, in place.
