@@ -116,23 +116,25 @@ double legendre_series(std::span<const double> beta, double x) {
     return b1;
 }
 
-// Compiled for AVX-512, AVX2 and the baseline, picked at run time. The points go eight to a vector
-// (GCC vector extensions, lowered to whatever registers the clone has): a plain loop over the points
-// was not vectorised (GCC interchanged it with the loop over l). The phase tables of a big sphere's
-// series, thousands of terms at thousands of points, took a fifth of the time. Element-wise operations
-// in the scalar sum's order and no contraction (cmake/BrdfWarnings.cmake): every clone, and the
-// scalar legendre_series above, give the same bits. It throws nothing: GCC 12 takes a
-// target_clones function for one that does not throw, which skips its callers' cleanups
-// (linalg.cpp, lu_factor_rows); legendre_series checks the sizes.
+// Compiled for AVX-512, AVX2 and the baseline, one picked at run time. The points go W to a vector,
+// W the width of the target's registers (GCC vector extensions): a plain loop over the points was
+// not vectorised (GCC interchanged it with the loop over l), and a vector wider than the registers
+// GCC lowers through the stack piece by piece (eight under AVX2: the 40 um matting agent's phase
+// tables took 12 % of its compute with its Mie on disk). The phase tables of a big sphere's series,
+// thousands of terms at thousands of points, took a fifth of the time before. Element-wise
+// operations in the scalar sum's order and no contraction (cmake/BrdfWarnings.cmake): every set,
+// and the scalar legendre_series above, give the same bits.
 namespace {
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-void legendre_series_blocks(std::span<const double> beta, std::span<const double> x, std::span<double> out) {
-    typedef double Vec8 __attribute__((vector_size(64)));
+template <int W> struct PointLanes { // (an alias template would drop the attribute)
+    typedef double vec __attribute__((vector_size(8 * W)));
+};
+template <int W>
+[[gnu::always_inline]] inline void legendre_series_blocks(std::span<const double> beta, std::span<const double> x,
+                                                          std::span<double> out) {
+    using Vec = typename PointLanes<W>::vec;
     // Points in blocks whose two recurrence rows stay in the L1 cache.
-    constexpr std::size_t lanes = 8, vectors = 32, block = lanes * vectors;
-    Vec8 xs[vectors], b1[vectors], b2[vectors];
+    constexpr std::size_t lanes = W, vectors = 256 / W, block = lanes * vectors;
+    Vec xs[vectors], b1[vectors], b2[vectors];
     for (std::size_t first = 0; first < x.size(); first += block) {
         const std::size_t count = std::min(block, x.size() - first);
         const std::size_t used = (count + lanes - 1) / lanes;
@@ -149,7 +151,7 @@ void legendre_series_blocks(std::span<const double> beta, std::span<const double
             const double betac = (l + 1.0) / (l + 2.0);
             const double bl = beta[i];
             for (std::size_t v = 0; v < used; ++v) {
-                const Vec8 b0 = bl + a * xs[v] * b1[v] - betac * b2[v];
+                const Vec b0 = bl + a * xs[v] * b1[v] - betac * b2[v];
                 b2[v] = b1[v];
                 b1[v] = b0;
             }
@@ -157,12 +159,37 @@ void legendre_series_blocks(std::span<const double> beta, std::span<const double
         for (std::size_t j = 0; j < count; ++j) out[first + j] = b1[j / lanes][j % lanes];
     }
 }
+
+using SeriesBlocks = void (*)(std::span<const double>, std::span<const double>, std::span<double>);
+void series_blocks_baseline(std::span<const double> beta, std::span<const double> x, std::span<double> out) {
+    legendre_series_blocks<2>(beta, x, out);
+}
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2"))) void series_blocks_avx2(std::span<const double> beta, std::span<const double> x,
+                                                        std::span<double> out) {
+    legendre_series_blocks<4>(beta, x, out);
+}
+__attribute__((target("avx512f"))) void series_blocks_avx512(std::span<const double> beta, std::span<const double> x,
+                                                            std::span<double> out) {
+    legendre_series_blocks<8>(beta, x, out);
+}
+#endif
+SeriesBlocks series_blocks() {
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+    static const SeriesBlocks kernel = __builtin_cpu_supports("avx512f") ? series_blocks_avx512
+                                       : __builtin_cpu_supports("avx2")  ? series_blocks_avx2
+                                                                         : series_blocks_baseline;
+    return kernel;
+#else
+    return series_blocks_baseline;
+#endif
+}
 } // namespace
 
 void legendre_series(std::span<const double> beta, std::span<const double> x, std::span<double> out) {
     if (out.size() < x.size())
         throw InternalError(cat("legendre_series: ", out.size(), " outputs for ", x.size(), " points"));
-    legendre_series_blocks(beta, x, out);
+    series_blocks()(beta, x, out);
 }
 
 } // namespace brdf
