@@ -244,18 +244,20 @@ template <typename LaneVec>
     }
 }
 
-// The Householder reduction of W matrices side by side to upper Hessenberg form, A = Z H Z^T (Golub and Van Loan 2013, algorithm 7.4.2; LAPACK's dgehd2 and dorg2r, unblocked):
-// a[(i * n + j) W + l] holds element (i, j) of lane l's matrix and receives H (zeros below the
-// subdiagonal), z receives Z; both 8 W-byte aligned. LAPACK (dgehrd, dorghr) does the same one matrix at a time, at the
+// The Householder reduction of W matrices side by side to upper Hessenberg form, A = Z H Z^T (Golub
+// and Van Loan 2013, algorithm 7.4.2; LAPACK's dgehd2 and dorg2r, unblocked): a[(i * n + j) W + l]
+// holds element (i, j) of lane l's matrix and receives H (zeros below the subdiagonal), z receives
+// Z; both 8 W-byte aligned. LAPACK (dgehrd, dorghr) does the same one matrix at a time, at the
 // Nystrom pencils' sizes (a material's orders times its wavelengths: 750 of 32 x 32 for the seed,
-// 1,250 of 64 x 64 at "reference") 3.6 times as slowly at 32 streams, 1.7 at 64, its small
-// level-2 calls mostly overhead (largest_lane_pencil has the numbers). Each lane sees the
-// operations of a scalar reduction in the same order, so its H and Z do not depend on its
-// neighbours or on the instruction set (no contraction; the clones give identical results). A
-// column already zero below the subdiagonal gets no reflector (tau 0), as in LAPACK's dlarfg.
+// 1,250 of 64 x 64 at "reference") 3.6 times as slowly at 32 streams, 1.7 at 64, its small level-2
+// calls mostly overhead (largest_lane_pencil has the numbers). Each lane sees the operations of a
+// scalar reduction in the same order, so its H and Z do not depend on its neighbours or on the
+// instruction set (no contraction; the sets give identical results). A column already zero below
+// the subdiagonal gets no reflector (tau 0), as in LAPACK's dlarfg.
 // `scratch` holds 3 n W doubles, aligned alike.
 template <int W>
-[[gnu::always_inline]] inline void reduce_hessenberg_lanes(int n, double* a_lanes, double* z_lanes, double* scratch_lanes) {
+[[gnu::always_inline]] inline void reduce_hessenberg_lanes(int n, double* a_lanes, double* z_lanes,
+                                                           double* scratch_lanes) {
     using LaneVec = typename HessenbergLanes<W>::vec;
     using LaneMask = typename HessenbergLanes<W>::mask;
     LaneVec* const a = reinterpret_cast<LaneVec*>(a_lanes);
@@ -317,7 +319,7 @@ template <int W>
 // Gaussian elimination with a pivot chosen per shift from two adjacent rows, then back substitution
 // by columns: every shift sees the operations of a scalar solve in the same order, so its answer
 // does not depend on its neighbours or on the instruction set (no contraction anywhere,
-// cmake/BrdfWarnings.cmake: the clones give identical results). One vector of GCC's per matrix
+// cmake/BrdfWarnings.cmake: the sets give identical results). One vector of GCC's per matrix
 // entry holds it for every shift: the pivots' row swaps are blends (plain loops over the lanes
 // compiled to a branch per lane, a third of the time); each row of I + u H is made as the
 // elimination reaches it, in the slot where the factor's row will be, so a step reads what the last
@@ -383,7 +385,8 @@ template <int W>
 
 // One pair of kernels per instruction set, picked once at run time: every lane sees a scalar
 // reduction's or solve's operations in the same order and nothing is contracted
-// (cmake/BrdfWarnings.cmake), so each set gives the same bits (LinalgHessenbergLanes tests).
+// (cmake/BrdfWarnings.cmake), so each set gives the same bits (Linalg.ShiftedPencil*, run under
+// each set: tests/core/CMakeLists.txt).
 struct HessenbergKernels {
     int lanes;
     void (*reduce)(int n, double* a, double* z, double* scratch);
@@ -429,7 +432,8 @@ struct alignas(8 * max_hessenberg_lanes) LaneBlock {
 };
 struct AlignedDoubles {
     explicit AlignedDoubles(std::size_t count)
-        : blocks(std::make_unique_for_overwrite<LaneBlock[]>((count + max_hessenberg_lanes - 1) / max_hessenberg_lanes)) {}
+        : blocks(std::make_unique_for_overwrite<LaneBlock[]>((count + max_hessenberg_lanes - 1) /
+                                                             max_hessenberg_lanes)) {}
     double* get() { return blocks[0].v; }
     std::unique_ptr<LaneBlock[]> blocks;
 };
@@ -497,7 +501,8 @@ std::vector<ShiftedPencil> ShiftedPencil::batch(std::span<const Matrix> g, std::
             const Matrix& m = g[first + l];
             for (int i = 0; i < n; ++i)
                 for (int j = 0; j < n; ++j)
-                    a.get()[(static_cast<std::size_t>(i) * n + j) * lanes + l] = m(i, j) / d[static_cast<std::size_t>(i)];
+                    a.get()[(static_cast<std::size_t>(i) * n + j) * lanes + l] =
+                        m(i, j) / d[static_cast<std::size_t>(i)];
         }
         kernels.reduce(n, a.get(), z.get(), scratch.get());
         for (int l = 0; l < count; ++l) {
