@@ -33,6 +33,13 @@ typedef __global const double* gcptr;
 // ... in k order with the zero a_ik skipped, each term fused into the sum (fma): a multiply and an
 // add were twice the instructions of the loop, where the solves of a gloss finish (48 streams)
 // spend most of their time: its `compute` 0.826 -> 0.792 s (medians of 7 alternating runs).
+// MAT_MUL_WIDE 0 (the host's build option where the device's native double vectors are narrower
+// than eight) leaves the 32-column blocks out: their four double16 sums are 16 of AVX2's 16
+// registers, and spilled they cost a gloss finish's solves more than the blocks save. Each element
+// is the same sum either way.
+#ifndef MAT_MUL_WIDE
+#define MAT_MUL_WIDE 1
+#endif
 static void mat_mul(gptr restrict c, int ldc, gcptr restrict a, int lda, gcptr restrict b, int ldb, int n) {
     const int blocked = n - n % 16;
     for (int i = 0; i < n; i += 2) {
@@ -42,7 +49,7 @@ static void mat_mul(gptr restrict c, int ldc, gcptr restrict a, int lda, gcptr r
         gptr restrict c0 = c + i * ldc;
         gptr restrict c1 = c + (i + 1) * ldc;
         int j0 = 0;
-        for (; j0 + 32 <= blocked; j0 += 32) {
+        for (; MAT_MUL_WIDE && j0 + 32 <= blocked; j0 += 32) {
             double16 s00 = (double16)(0.0), s01 = (double16)(0.0), s10 = (double16)(0.0), s11 = (double16)(0.0);
             for (int k = 0; k < n; ++k) {
                 const double x0 = a0[k], x1 = a1[k];

@@ -288,7 +288,12 @@ std::vector<OrderSolution> solve_orders_opencl(std::span<const OrderProblem> pro
     const bool serial = resolve_on(*ctx, which) == ClSolverKernel::Serial;
     const char* const program_name = serial ? "ambartsumian_serial" : "ambartsumian";
     const char* const kernel_name = serial ? "ambartsumian_solve_serial" : "ambartsumian_solve";
-    const ::cl::Program program = ctx->program(program_name);
+    // The serial kernel's products without their 32-column blocks where the device's native double
+    // vectors are narrower than eight (kernels/ambartsumian_serial.cl, MAT_MUL_WIDE): the same sums.
+    cl_uint native_doubles = 0;
+    if (serial) ctx->device().getInfo(CL_DEVICE_NATIVE_VECTOR_WIDTH_DOUBLE, &native_doubles);
+    const ::cl::Program program =
+        ctx->program(program_name, serial && native_doubles < 8 ? "-DMAT_MUL_WIDE=0" : "");
     cl_int err = CL_SUCCESS;
     ::cl::Kernel kernel(program, kernel_name, &err);
     brdf::cl::check(err, cat("OpenCL order solver: create kernel ", kernel_name));
