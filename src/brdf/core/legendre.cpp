@@ -1,6 +1,7 @@
 #include <brdf/core/legendre.h>
 
 #include <brdf/core/error.h>
+#include <brdf/core/lane_set.h>
 #include <brdf/core/log.h>
 
 #include <algorithm>
@@ -176,13 +177,13 @@ __attribute__((target("avx512f"))) void series_blocks_avx512(std::span<const dou
 #endif
 SeriesBlocks series_blocks() {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-    static const SeriesBlocks kernel = __builtin_cpu_supports("avx512f") ? series_blocks_avx512
-                                       : __builtin_cpu_supports("avx2")  ? series_blocks_avx2
-                                                                         : series_blocks_baseline;
-    return kernel;
-#else
-    return series_blocks_baseline;
+    switch (lane_set()) {
+    case LaneSet::avx512: return series_blocks_avx512;
+    case LaneSet::avx2: return series_blocks_avx2;
+    case LaneSet::baseline: break;
+    }
 #endif
+    return series_blocks_baseline;
 }
 } // namespace
 

@@ -1,14 +1,13 @@
 #include <brdf/core/linalg.h>
 
 #include <brdf/core/error.h>
+#include <brdf/core/lane_set.h>
 #include <brdf/core/log.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <memory>
 #include <mutex>
-#include <string_view>
 #include <utility>
 
 #include <cblas.h>
@@ -383,8 +382,8 @@ template <int W>
     for (int l = 0; l < W; ++l) bad[l] = singular[l] != 0;
 }
 
-// One pair of kernels per instruction set, picked once at run time: every lane sees a scalar
-// reduction's or solve's operations in the same order and nothing is contracted
+// One pair of kernels per instruction set, picked once at run time (lane_set()): every lane sees a
+// scalar reduction's or solve's operations in the same order and nothing is contracted
 // (cmake/BrdfWarnings.cmake), so each set gives the same bits (Linalg.ShiftedPencil*, run under
 // each set: tests/core/CMakeLists.txt).
 struct HessenbergKernels {
@@ -414,11 +413,10 @@ __attribute__((target("avx512f"))) void solve_avx512(const Matrix& h, const doub
 const HessenbergKernels& hessenberg_kernels() {
     static const HessenbergKernels kernels = []() -> HessenbergKernels {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-        const char* wanted = std::getenv("BRDF_LINALG_LANES"); // "baseline" or "avx2": the tests' narrower sets
-        const std::string_view name = wanted ? wanted : "";
-        if (name != "baseline") {
-            if (__builtin_cpu_supports("avx512f") && name != "avx2") return {8, reduce_avx512, solve_avx512};
-            if (__builtin_cpu_supports("avx2")) return {4, reduce_avx2, solve_avx2};
+        switch (lane_set()) {
+        case LaneSet::avx512: return {8, reduce_avx512, solve_avx512};
+        case LaneSet::avx2: return {4, reduce_avx2, solve_avx2};
+        case LaneSet::baseline: break;
         }
 #endif
         return {2, reduce_baseline, solve_baseline};

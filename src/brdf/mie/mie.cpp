@@ -281,47 +281,37 @@ template <int W>
                                         sums.back_i[l]);
 }
 
-/// A batch of mie_lanes spheres (`count` of them real, the lanes past it repeating the last), W at a
-/// time.
-template <int W>
-[[gnu::always_inline]] inline void real_batch(double m, const double (&x)[mie_lanes], const int (&n_terms)[mie_lanes],
-                                              int count, Coefficients* const (&out)[mie_lanes],
-                                              Efficiencies* const (&q)[mie_lanes], double* ez, double* ex) noexcept {
-    for (int first = 0; first < count; first += W)
-        real_lanes<W>(m, x + first, n_terms + first, std::min(W, count - first), out + first, q + first, ez, ex);
+/// A batch of mie_lanes spheres (`count` of them real, the lanes past it repeating the last) and
+/// where their results go: the caller sizes `out` and the lanes' E_n storage, ez and ex.
+struct RealBatch {
+    double m;
+    const double (&x)[mie_lanes];
+    const int (&n_terms)[mie_lanes];
+    int count;
+    Coefficients* const (&out)[mie_lanes];
+    Efficiencies* const (&q)[mie_lanes]; ///< all null for the coefficients alone
+    double *ez, *ex;
+};
+/// The batch W spheres at a time.
+template <int W> [[gnu::always_inline]] inline void real_batch(const RealBatch& b) noexcept {
+    for (int first = 0; first < b.count; first += W)
+        real_lanes<W>(b.m, b.x + first, b.n_terms + first, std::min(W, b.count - first), b.out + first, b.q + first,
+                      b.ez, b.ex);
 }
 
 // One kernel per instruction set, picked once at run time; the same bits from each (above), since
 // this file is compiled without contraction (no FMA).
-using RealBatch = void (*)(double, const double (&)[mie_lanes], const int (&)[mie_lanes], int,
-                           Coefficients* const (&)[mie_lanes], Efficiencies* const (&)[mie_lanes], double*,
-                           double*) noexcept;
-void real_batch_baseline(double m, const double (&x)[mie_lanes], const int (&n_terms)[mie_lanes], int count,
-                         Coefficients* const (&out)[mie_lanes], Efficiencies* const (&q)[mie_lanes], double* ez,
-                         double* ex) noexcept {
-    real_batch<2>(m, x, n_terms, count, out, q, ez, ex);
-}
+using RealBatchKernel = void (*)(const RealBatch&) noexcept;
+void real_batch_baseline(const RealBatch& b) noexcept { real_batch<2>(b); }
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target("avx2"))) void real_batch_avx2(double m, const double (&x)[mie_lanes],
-                                                     const int (&n_terms)[mie_lanes], int count,
-                                                     Coefficients* const (&out)[mie_lanes],
-                                                     Efficiencies* const (&q)[mie_lanes], double* ez,
-                                                     double* ex) noexcept {
-    real_batch<4>(m, x, n_terms, count, out, q, ez, ex);
-}
-__attribute__((target("avx512f"))) void real_batch_avx512(double m, const double (&x)[mie_lanes],
-                                                         const int (&n_terms)[mie_lanes], int count,
-                                                         Coefficients* const (&out)[mie_lanes],
-                                                         Efficiencies* const (&q)[mie_lanes], double* ez,
-                                                         double* ex) noexcept {
-    real_batch<8>(m, x, n_terms, count, out, q, ez, ex);
-}
+__attribute__((target("avx2"))) void real_batch_avx2(const RealBatch& b) noexcept { real_batch<4>(b); }
+__attribute__((target("avx512f"))) void real_batch_avx512(const RealBatch& b) noexcept { real_batch<8>(b); }
 #endif
 /// The set series_kernels() names (phase_function.h: the CPU's widest, or the narrower one that
 /// BRDF_MIE_KERNELS asks for, so that the tests run each set's lanes on one machine).
-RealBatch real_batch_kernel() {
+RealBatchKernel real_batch_kernel() {
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-    static const RealBatch kernel = [] {
+    static const RealBatchKernel kernel = [] {
         const std::string_view set = series_kernels();
         return set == "avx512-fma" ? real_batch_avx512 : set == "avx2-fma" ? real_batch_avx2 : real_batch_baseline;
     }();
@@ -409,7 +399,7 @@ void coefficients(Complex m, std::span<const double> x, std::span<Coefficients> 
         }
         work.ez_lanes.resize(static_cast<std::size_t>(mie_lanes) * (most + 1));
         work.ex_lanes.resize(static_cast<std::size_t>(mie_lanes) * (most + 1));
-        real_batch_kernel()(m.real(), xs, terms, count, dst, sums, work.ez_lanes.data(), work.ex_lanes.data());
+        real_batch_kernel()({m.real(), xs, terms, count, dst, sums, work.ez_lanes.data(), work.ex_lanes.data()});
     }
 }
 

@@ -84,9 +84,9 @@ struct Efficiencies {
 Efficiencies efficiencies(const Coefficients& c);
 
 /// coefficients(m, x, out, work) and efficiencies(out[i]) into q[i] for every i (x, out and q the
-/// same size), the same bits. A real index sums the efficiencies in the eight lanes as their terms
+/// same size), the same bits. A real index sums the efficiencies in the series lanes as their terms
 /// are made, where the terms are still in registers and each order's factors are divided once for
-/// the eight spheres.
+/// the spheres of a vector.
 void coefficients(std::complex<double> m, std::span<const double> x, std::span<Coefficients> out,
                   std::span<Efficiencies> q, SeriesWork& work);
 
