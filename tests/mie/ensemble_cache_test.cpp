@@ -40,10 +40,17 @@ TEST(EnsembleCache, ARepeatIsAnsweredWithTheFirstResult) {
     const auto other_sizes = cache.get(rutile, pmma, 550.0, power_law(0.4, 0.2), options);
     const auto other_kind = cache.get(rutile, pmma, 550.0, gamma(0.4, 0.3), options);
     const auto other_index = cache.get({2.6, 1e-3}, pmma, 550.0, sizes, options);
-    for (const auto& e : {other_tolerance, other_wavelength, other_binder, other_sizes, other_kind, other_index})
+    EnsembleOptions reads = options; // what the convergence test checks is part of the request
+    reads.checked_moments = 129;
+    const auto other_reads = cache.get(rutile, pmma, 550.0, sizes, reads);
+    reads.value_tolerance = 1e-4;
+    const auto other_values = cache.get(rutile, pmma, 550.0, sizes, reads);
+    for (const auto& e :
+         {other_tolerance, other_wavelength, other_binder, other_sizes, other_kind, other_index, other_reads, other_values})
         EXPECT_NE(e.get(), first.get());
-    EXPECT_EQ(cache.stats().computed, 7);
-    EXPECT_EQ(cache.stats().entries, 7u);
+    EXPECT_NE(other_values.get(), other_reads.get());
+    EXPECT_EQ(cache.stats().computed, 9);
+    EXPECT_EQ(cache.stats().entries, 9u);
     EXPECT_NE(other_sizes->csca_um2, first->csca_um2);
 }
 

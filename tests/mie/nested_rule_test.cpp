@@ -4,6 +4,7 @@
 // where the automatic choice switches, under doubled resolution, and the progress callback.
 
 #include <brdf/core/error.h>
+#include <brdf/core/legendre.h>
 #include <brdf/mie/ensemble.h>
 
 #include "mie_test_support.h"
@@ -157,6 +158,76 @@ TEST(NestedRule, StopsChangingWhenResolutionDoubles) {
     EXPECT_LT(diff.cross, options.tolerance);
     EXPECT_LT(diff.g, options.tolerance);
     EXPECT_LT(diff.chi, options.tolerance) << "worst at l = " << diff.worst_l;
+}
+
+// A caller that reads only the moments up to 128 and the phase function beyond the refracted cone
+// (model/model.cpp, mie_accuracy: a smooth paint's tables) has the nested rule check only those:
+// the 40 um matting agent then stops at half the radius nodes at most wavelengths (never more than
+// the full test's), and what it reads is as accurate as asked, against the brute-force reference's moments and against the full check refined twice.
+TEST(NestedRule, ChecksOnlyWhatTheCallerReads) {
+    std::ifstream in(test::source_dir() / "tests/reference/mie/matting_reference.json");
+    ASSERT_TRUE(in) << "missing matting_reference.json";
+    const nlohmann::json ref = nlohmann::json::parse(in);
+    int checked = 0, halved = 0;
+    for (const auto& c : ref["cases"]) {
+        if (c["r_eff_um"].get<double>() != 40.0) continue;
+        const double nm = c["wavelength_nm"].get<double>(), n_h = c["medium_index"].get<double>();
+        const Complex m{c["particle_index"].get<double>(), 0.0};
+        const SizeDistribution d = gamma(40.0, c["v_eff"].get<double>());
+        SCOPED_TRACE(testing::Message() << nm << " nm");
+        EnsembleOptions full;
+        full.tolerance = 1e-5;
+        EnsembleOptions reads = full;
+        reads.checked_moments = 129;
+        reads.checked_cosine = 2.0 / (n_h * n_h) - 1.0;
+        reads.value_tolerance = 3e-5; // as model.cpp asks at "default" (mie_accuracy)
+        const Ensemble e = ensemble(m, n_h, nm, d, reads);
+        full.refinement = 2;
+        const Ensemble fine = ensemble(m, n_h, nm, d, full);
+        const int full_nodes = (fine.radius_nodes + 1) / 2; // the full test's, without the refinement
+        EXPECT_LE(e.radius_nodes, full_nodes);
+        if (2 * e.radius_nodes - 1 <= full_nodes) ++halved;
+        EXPECT_LE(e.error_estimate, reads.tolerance);
+        EXPECT_REL_NEAR(e.cext_um2, c["cext_um2"].get<double>(), reads.tolerance);
+        EXPECT_NEAR(e.g, c["g"].get<double>(), reads.tolerance);
+        const auto& beta = c["legendre"];
+        for (std::size_t l = 0; l < beta.size(); ++l)
+            EXPECT_NEAR(e.legendre[l] / (2.0 * l + 1.0), beta[l].get<double>() / (2.0 * l + 1.0), reads.tolerance)
+                << "l = " << l;
+        for (std::size_t l = 0; l < 129; ++l)
+            EXPECT_NEAR(e.legendre[l] / (2.0 * l + 1.0), fine.legendre[l] / (2.0 * l + 1.0), reads.tolerance)
+                << "l = " << l;
+        // The values the single scattering reads, at 200 angles (the rule's test samples 64). What
+        // they carry is aliasing, the level differences only estimate it (the finer rule has its
+        // own, about half): within twice the tolerance.
+        for (int i = 0; i < 200; ++i) {
+            const double mu = -1.0 + (reads.checked_cosine + 1.0) * i / 199.0;
+            EXPECT_NEAR(legendre_series(e.legendre, mu), legendre_series(fine.legendre, mu),
+                        2.0 * reads.value_tolerance)
+                << "mu = " << mu;
+        }
+        ++checked;
+    }
+    EXPECT_EQ(checked, 3);
+    EXPECT_GE(halved, 2) << "the nodes were not halved";
+    // The values are checked: asked for far more of them than of the moments, the rule goes on, as
+    // far as the full test would (never further: their level differences carry aliasing).
+    EnsembleOptions loose, tight;
+    loose.tolerance = tight.tolerance = 1e-5;
+    loose.checked_moments = tight.checked_moments = 129;
+    loose.checked_cosine = tight.checked_cosine = -0.1;
+    loose.value_tolerance = 1e-4;
+    tight.value_tolerance = 1e-8;
+    const Ensemble a = ensemble({1.46, 0.0}, 1.49, 550.0, gamma(5.0, 0.1), loose);
+    const Ensemble b = ensemble({1.46, 0.0}, 1.49, 550.0, gamma(5.0, 0.1), tight);
+    EXPECT_GT(b.radius_nodes, a.radius_nodes);
+    EnsembleOptions every = loose;
+    every.checked_moments = 0;
+    EXPECT_EQ(b.radius_nodes, ensemble({1.46, 0.0}, 1.49, 550.0, gamma(5.0, 0.1), every).radius_nodes);
+    EnsembleOptions bad;
+    bad.checked_moments = -1;
+    test::expect_error_mentions<InputError>([&] { ensemble({1.46, 0.0}, 1.49, 550.0, gamma(5.0, 0.1), bad); },
+                                            "checked moments");
 }
 
 // Both rules report progress: fractions in [0, 1], never decreasing, the last one 1.

@@ -18,9 +18,10 @@
 // - nested: large spheres without sharp resonances (Re m <= 1, or absorbing, k/n >= 1e-2), x_max >=
 //   nested_rule_min_size_parameter: one nested trapezoid rule in ln x (tanh-sinh for the power law's
 //   finite support), its step halved until the averaged quantities themselves, cross sections and
-//   every Legendre moment, stop changing within the tolerance. The averaged phase function needs far
-//   fewer radii than resolving each sphere's structure would (matting agents: silica in acrylic,
-//   r_eff 40 um: 40 s -> 0.3 s per wavelength); see docs/mie.md.
+//   every Legendre moment (or what the caller reads: EnsembleOptions::checked_moments), stop
+//   changing within the tolerance. The averaged phase function needs far fewer radii than resolving
+//   each sphere's structure would (matting agents: silica in acrylic, r_eff 40 um: 40 s -> 0.3 s per
+//   wavelength); see docs/mie.md.
 
 #include <brdf/mie/mie.h>
 #include <brdf/mie/size_distribution.h>
@@ -56,6 +57,17 @@ struct EnsembleOptions {
     int max_nodes = 400000;
     /// The radius rule (tests and studies force one; the default chooses).
     RadiusRule rule = RadiusRule::automatic;
+    /// What the caller reads of the averaged phase function, for the nested rule's convergence test
+    /// (docs/mie.md, "What the nested rule checks"). 0: every moment chi_l at `tolerance` (the
+    /// default). > 0: chi_l for l < checked_moments at `tolerance`, and, where value_tolerance > 0,
+    /// the phase function's values p(mu) (normalised to a mean of 1) at mu <= checked_cosine,
+    /// absolute, at value_tolerance; the moments beyond are returned all the same, summed from the
+    /// same radius nodes, but unchecked. A tabulated BRDF reads no more than that: the solver chi_l
+    /// up to twice its streams (delta-M), the exact single scattering p beyond the refracted cone.
+    /// The panels rule is not affected (its nodes follow the cross sections).
+    int checked_moments = 0;
+    double checked_cosine = -1.0;
+    double value_tolerance = 0.0;
     /// Called with the completed fraction in [0, 1] (non-decreasing, 1 at the end) from the calling
     /// thread while a long integration runs; empty: not called. Must not throw.
     std::function<void(double fraction)> progress;

@@ -23,7 +23,7 @@ constexpr std::string_view disk_magic = "BRDFMIE1";
 // not rounds differently): one list of the inputs for both caches.
 template <class Key>
 std::string disk_key(const Key& request) {
-    std::string key = "brdf-mie-ensemble 2\nbuild " BRDF_MIE_BUILD_ID "\nkernels ";
+    std::string key = "brdf-mie-ensemble 3\nbuild " BRDF_MIE_BUILD_ID "\nkernels ";
     key += series_kernels();
     key += '\n';
     std::apply(
@@ -118,7 +118,10 @@ std::shared_ptr<const Ensemble> EnsembleCache::get(std::complex<double> particle
                   options.legendre.max_terms,
                   options.refinement,
                   options.max_nodes,
-                  static_cast<int>(options.rule)};
+                  static_cast<int>(options.rule),
+                  options.checked_moments,
+                  options.checked_cosine,
+                  options.value_tolerance};
     std::promise<std::shared_ptr<const Ensemble>> promise;
     {
         std::unique_lock lock(m_mutex);

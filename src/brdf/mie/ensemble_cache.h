@@ -60,7 +60,8 @@ public:
 
 private:
     // Every input of mie::ensemble but the progress callback.
-    using Key = std::tuple<double, double, double, double, int, double, double, double, double, int, int, int, int>;
+    using Key = std::tuple<double, double, double, double, int, double, double, double, double, int, int, int, int, int,
+                           double, double>;
     struct Entry {
         std::shared_future<std::shared_ptr<const Ensemble>> result;
         std::size_t bytes = 0; // 0 while in flight

@@ -22,13 +22,16 @@ LayerOptics analytic_layer_optics(const material::MediumSpec& m, int channel, do
 
 } // namespace
 
-LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wavelength_nm, double mie_tolerance,
+LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wavelength_nm, const MieAccuracy& mie,
                                      const std::string& who, const std::function<void()>& heartbeat) {
     if (!layer.binder) throw InputError(cat(who, ": particulate optics need a binder"));
     LayerOptics out;
     out.index = layer.binder->index.model.at(wavelength_nm).n;
     mie::EnsembleOptions options;
-    options.tolerance = std::clamp(mie_tolerance, 1e-8, 0.1);
+    options.tolerance = std::clamp(mie.tolerance, 1e-8, 0.1);
+    options.checked_moments = mie.checked_moments;
+    options.checked_cosine = mie.checked_cosine;
+    options.value_tolerance = mie.value_tolerance;
     if (heartbeat) options.progress = [&heartbeat](double) { heartbeat(); };
 
     // sigma_s = sum_i N_i Csca_i, sigma_e = sum_i N_i Cext_i + (1 - f) kappa_binder, and the mixed
@@ -83,15 +86,17 @@ LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wa
     return out;
 }
 
-SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, double mie_tolerance,
+SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, const MieAccuracy& mie,
                                int substrate_channel, const std::function<void()>& heartbeat) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     SpectralOptics out;
     out.wavelength_nm = wavelength_nm;
+    MieAccuracy below = mie; // the layers under the top: their moments only
+    below.value_tolerance = 0.0;
     for (const material::LayerSpec& layer : spec.layers)
-        out.layers.push_back(layer.medium ? analytic_layer_optics(*layer.medium, 0, 1e-3 * mie_tolerance)
-                                          : particulate_layer_optics(layer, wavelength_nm, mie_tolerance, who,
-                                                                     heartbeat));
+        out.layers.push_back(layer.medium ? analytic_layer_optics(*layer.medium, 0, 1e-3 * mie.tolerance)
+                                          : particulate_layer_optics(layer, wavelength_nm,
+                                                                     out.layers.empty() ? mie : below, who, heartbeat));
     if (spec.substrate) out.substrate_albedo = spec.substrate->albedo[static_cast<std::size_t>(substrate_channel)];
     return out;
 }
