@@ -82,9 +82,9 @@ bool single_scattering_apart(const material::MaterialSpec& spec, const std::vect
 // that and no more (mie::EnsembleOptions::checked_moments; docs/mie.md, "What the nested rule
 // checks"). Where the single scattering is apart, the solver reads the moments up to twice its
 // streams (delta-M: rte::delta_m at the split rule's exact degree + 1 <= 2 N), at most the cap, and
-// the exact single scattering the top layer's phase function at the scattering angles a smooth top
-// lets in (both refracted into its cone: Theta >= pi - 2 theta_c, cos = 2 / n^2 - 1; every angle
-// without an interface), to 0.3 tol absolute (p of mean 1). Those values are what the radius rule
+// the exact single scattering each layer's phase function at the scattering angles a smooth top
+// lets in (both directions refracted into its cone, one index through the stack: Theta >= pi - 2
+// theta_c, cos = 2 / n^2 - 1; every angle without an interface), to 0.3 tol absolute (p of mean 1). Those values are what the radius rule
 // resolves worst (its step aliases each sphere's angular ripple: 20-50 % of the backward p, before
 // as now) and the tables feel them least (the single scattering is ~2e-4 of a matting agent's BRDF
 // there); measured against the tables of a four to eight times finer Mie integration, the matting
@@ -98,7 +98,7 @@ MieAccuracy mie_accuracy(const material::MaterialSpec& spec, const NumericalSett
     out.checked_moments = 2 * st.max_streams + 1;
     out.value_tolerance = 0.3 * st.tolerance;
     const material::LayerSpec& top = spec.layers.front();
-    const double n = top.binder ? top.binder->index.model.at(wavelength_nm).n : 1.0;
+    const double n = top.binder ? top.binder->index.model.at(wavelength_nm).n : top.medium->index.value_or(1.0);
     out.checked_cosine = spec.surface.kind == material::Surface::Smooth && n > 1.0 ? 2.0 / (n * n) - 1.0 : 1.0;
     return out;
 }

@@ -91,12 +91,9 @@ SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavele
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     SpectralOptics out;
     out.wavelength_nm = wavelength_nm;
-    MieAccuracy below = mie; // the layers under the top: their moments only
-    below.value_tolerance = 0.0;
     for (const material::LayerSpec& layer : spec.layers)
         out.layers.push_back(layer.medium ? analytic_layer_optics(*layer.medium, 0, 1e-3 * mie.tolerance)
-                                          : particulate_layer_optics(layer, wavelength_nm,
-                                                                     out.layers.empty() ? mie : below, who, heartbeat));
+                                          : particulate_layer_optics(layer, wavelength_nm, mie, who, heartbeat));
     if (spec.substrate) out.substrate_albedo = spec.substrate->albedo[static_cast<std::size_t>(substrate_channel)];
     return out;
 }

@@ -51,8 +51,8 @@ struct SpectralOptics {
 struct MieAccuracy {
     double tolerance = 1e-5;      ///< mie::EnsembleOptions::tolerance
     int checked_moments = 0;      ///< 0: every moment
-    /// The top layer's phase function values at scattering cosines <= checked_cosine, absolute at
-    /// value_tolerance (0: none). Layers below read only the moments.
+    /// The phase function's values at scattering cosines <= checked_cosine, absolute at
+    /// value_tolerance (0: none).
     double checked_cosine = -1.0;
     double value_tolerance = 0.0;
 };
