@@ -298,6 +298,25 @@ TEST(PipelineTable, MattingAgentsWavelengthsShareTheirSingleScattering) {
     EXPECT_LT(shared_single_scattering_error(model::solve_material(spec, model::Device::Cpu, st)), 1e-6);
 }
 
+// The Mie integration checks what the tables read (model.cpp, mie_accuracy; docs/mie.md): a smooth
+// paint's 40 um matting agent stops at half the radius nodes of the same paint under a rough top,
+// whose wavelength selection compares the phase functions at every angle and so checks every
+// moment; the moments the smooth paint's solver reads agree within the Mie tolerance.
+TEST(Pipeline, MieChecksWhatTheTablesRead) {
+    const auto spec = [](const std::string& surface) {
+        return spec_from(R"({"name": "silica", "binder": {"material": "pmma"}, "spectrum": {"wavelengths_nm": [550]},
+            "surface": ")" + surface + R"(", "pigments": [{"material": "silica", "volume_fraction": 0.05,
+            "size": {"distribution": "gamma", "r_eff_um": 40, "v_eff": 0.1}}]})");
+    };
+    const material::MaterialSpec smooth = spec("smooth"), rough = spec("gloss");
+    const model::NumericalSettings st = model::settings_for(smooth.accuracy.tolerance);
+    const model::LayerOptics a = model::material_optics(smooth, st).optics.at(0).top();
+    const model::LayerOptics b = model::material_optics(rough, st).optics.at(0).top();
+    EXPECT_LE(2 * a.pigments.at(0).radius_nodes - 1, b.pigments.at(0).radius_nodes);
+    for (int l = 0; l <= 2 * st.max_streams; ++l)
+        EXPECT_NEAR(a.medium.beta.at(l) / (2 * l + 1), b.medium.beta.at(l) / (2 * l + 1), st.mie_tolerance) << "l = " << l;
+}
+
 // A film whose slab factor 1 - exp(-tau (1/u_o + 1/u_i)) is 1 to within 1 % of the tolerance
 // (the seed's rutile, 25 um: tau 11-14, exp(-2 tau) <= 1.3e-10) scatters once as a half-space:
 // its wavelengths share their terms on index nodes (it kept one per wavelength, 41, before), and
