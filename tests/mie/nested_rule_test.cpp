@@ -163,7 +163,8 @@ TEST(NestedRule, StopsChangingWhenResolutionDoubles) {
 // A caller that reads only the moments up to 128 and the phase function beyond the refracted cone
 // (model/model.cpp, mie_accuracy: a smooth paint's tables) has the nested rule check only those:
 // the 40 um matting agent then stops at half the radius nodes at most wavelengths (never more than
-// the full test's), and what it reads is as accurate as asked, against the brute-force reference's moments and against the full check refined twice.
+// the full test's), and what it reads is as accurate as asked: against the brute-force reference's
+// moments, and against the full test refined once more.
 TEST(NestedRule, ChecksOnlyWhatTheCallerReads) {
     std::ifstream in(test::source_dir() / "tests/reference/mie/matting_reference.json");
     ASSERT_TRUE(in) << "missing matting_reference.json";

@@ -314,7 +314,8 @@ TEST(Pipeline, MieChecksWhatTheTablesRead) {
     const model::LayerOptics b = model::material_optics(rough, st).optics.at(0).top();
     EXPECT_LE(2 * a.pigments.at(0).radius_nodes - 1, b.pigments.at(0).radius_nodes);
     for (int l = 0; l <= 2 * st.max_streams; ++l)
-        EXPECT_NEAR(a.medium.beta.at(l) / (2 * l + 1), b.medium.beta.at(l) / (2 * l + 1), st.mie_tolerance) << "l = " << l;
+        EXPECT_NEAR(a.medium.beta.at(l) / (2 * l + 1), b.medium.beta.at(l) / (2 * l + 1), st.mie_tolerance)
+            << "l = " << l;
 }
 
 // A film whose slab factor 1 - exp(-tau (1/u_o + 1/u_i)) is 1 to within 1 % of the tolerance

@@ -84,13 +84,14 @@ bool single_scattering_apart(const material::MaterialSpec& spec, const std::vect
 // streams (delta-M: rte::delta_m at the split rule's exact degree + 1 <= 2 N), at most the cap, and
 // the exact single scattering each layer's phase function at the scattering angles a smooth top
 // lets in (both directions refracted into its cone, one index through the stack: Theta >= pi - 2
-// theta_c, cos = 2 / n^2 - 1; every angle without an interface), to 0.3 tol absolute (p of mean 1). Those values are what the radius rule
-// resolves worst (its step aliases each sphere's angular ripple: 20-50 % of the backward p, before
-// as now) and the tables feel them least (the single scattering is ~2e-4 of a matting agent's BRDF
-// there); measured against the tables of a four to eight times finer Mie integration, the matting
-// agents' tables err by 2.3e-5 (5 um; 2.9e-5 with every moment checked) and 9e-6 (40 um; 2e-6),
-// in half the radius nodes at 40 um. Elsewhere the wavelength selection compares the phase
-// functions' values at all angles (select_wavelengths): every moment is checked, as before.
+// theta_c, cos = 2 / n^2 - 1; every angle without an interface), to 0.3 tol absolute (p of mean
+// 1). Those values are what the radius rule resolves worst (its step aliases each sphere's angular
+// ripple: 20-50 % of the backward p, before as now) and the tables feel them least (the single
+// scattering is ~2e-4 of a matting agent's BRDF there); measured against the tables of a four to
+// eight times finer Mie integration, the matting agents' tables err by 2.3e-5 (5 um; 2.9e-5 with
+// every moment checked) and 9e-6 (40 um; 2e-6), in half the radius nodes at 40 um. Elsewhere the
+// wavelength selection compares the phase functions' values at all angles (select_wavelengths):
+// every moment is checked, as before.
 MieAccuracy mie_accuracy(const material::MaterialSpec& spec, const NumericalSettings& st, double wavelength_nm) {
     MieAccuracy out;
     out.tolerance = st.mie_tolerance;
