@@ -849,9 +849,9 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
                                            ? static_cast<std::size_t>(options.checked_moments)
                                            : std::numeric_limits<std::size_t>::max();
     const bool values_checked = options.checked_moments > 0 && options.value_tolerance > 0.0;
-    std::vector<double> value_cosines; // 64 scattering angles from arccos(checked_cosine) to pi
+    const double theta_min = std::acos(options.checked_cosine); // validated: in [-1, 1]
+    std::vector<double> value_cosines; // 64 scattering angles from theta_min to pi
     if (values_checked) {
-        const double theta_min = std::acos(std::clamp(options.checked_cosine, -1.0, 1.0));
         for (int i = 0; i < 64; ++i) value_cosines.push_back(std::cos(theta_min + (pi - theta_min) * i / 63.0));
     }
     const auto values_of = [&](const std::vector<double>& beta) {
@@ -951,7 +951,7 @@ NestedResult integrate_nested(Complex m, double k, const SizeDistribution& sizes
     log::debug("Mie ensemble (nested rule): ", nodes, " nodes, angular rule for x <= ", x_intensity_max,
                ", estimated error ", error,
                values_checked ? cat(" (", options.checked_moments, " moments; the phase function beyond ",
-                                    std::acos(std::clamp(options.checked_cosine, -1.0, 1.0)) * 180.0 / pi,
+                                    theta_min * 180.0 / pi,
                                     " degrees: ", e_values, ")")
                               : std::string());
     return out;

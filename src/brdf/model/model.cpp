@@ -92,8 +92,9 @@ bool single_scattering_apart(const material::MaterialSpec& spec, const std::vect
 // every moment checked) and 9e-6 (40 um; 2e-6), in half the radius nodes at 40 um. Elsewhere the
 // wavelength selection compares the phase functions' values at all angles (select_wavelengths):
 // every moment is checked, as before.
-MieAccuracy mie_accuracy(const material::MaterialSpec& spec, const NumericalSettings& st, double wavelength_nm) {
-    MieAccuracy out;
+mie::EnsembleOptions mie_accuracy(const material::MaterialSpec& spec, const NumericalSettings& st,
+                                  double wavelength_nm) {
+    mie::EnsembleOptions out;
     out.tolerance = st.mie_tolerance;
     if (!single_scattering_apart(spec, wavelength_nm)) return out;
     out.checked_moments = 2 * st.max_streams + 1;

@@ -22,17 +22,15 @@ LayerOptics analytic_layer_optics(const material::MediumSpec& m, int channel, do
 
 } // namespace
 
-LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wavelength_nm, const MieAccuracy& mie,
-                                     const std::string& who, const std::function<void()>& heartbeat) {
+LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wavelength_nm,
+                                     const mie::EnsembleOptions& mie, const std::string& who,
+                                     const std::function<void()>& heartbeat) {
     if (!layer.binder) throw InputError(cat(who, ": particulate optics need a binder"));
     LayerOptics out;
     out.index = layer.binder->index.model.at(wavelength_nm).n;
-    mie::EnsembleOptions options;
+    mie::EnsembleOptions options = mie;
     options.tolerance = std::clamp(mie.tolerance, 1e-8, 0.1);
-    options.checked_moments = mie.checked_moments;
-    options.checked_cosine = mie.checked_cosine;
-    options.value_tolerance = mie.value_tolerance;
-    if (heartbeat) options.progress = [&heartbeat](double) { heartbeat(); };
+    options.progress = heartbeat ? std::function<void(double)>([&heartbeat](double) { heartbeat(); }) : nullptr;
 
     // sigma_s = sum_i N_i Csca_i, sigma_e = sum_i N_i Cext_i + (1 - f) kappa_binder, and the mixed
     // phase function weights each pigment's by its scattering N_i Csca_i.
@@ -86,7 +84,7 @@ LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wa
     return out;
 }
 
-SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, const MieAccuracy& mie,
+SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, const mie::EnsembleOptions& mie,
                                int substrate_channel, const std::function<void()>& heartbeat) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     SpectralOptics out;

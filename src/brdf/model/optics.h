@@ -7,6 +7,7 @@
 // thickness and the refractive index.
 
 #include <brdf/material/spec.h>
+#include <brdf/mie/ensemble.h>
 #include <brdf/rte/phase.h>
 #include <brdf/rte/stack.h>
 
@@ -46,28 +47,20 @@ struct SpectralOptics {
     const LayerOptics& top() const { return layers.front(); }
 };
 
-/// How accurately a wavelength's Lorenz-Mie ensembles are integrated, and what of their averaged
-/// phase functions the tables read (mie::EnsembleOptions: the nested rule checks only that).
-struct MieAccuracy {
-    double tolerance = 1e-5;      ///< mie::EnsembleOptions::tolerance
-    int checked_moments = 0;      ///< 0: every moment
-    /// The phase function's values at scattering cosines <= checked_cosine, absolute at
-    /// value_tolerance (0: none).
-    double checked_cosine = -1.0;
-    double value_tolerance = 0.0;
-};
-
 /// The optics of one layer of particles in a binder (or a clear binder film) at one wavelength.
-/// thickness_um absent: semi-infinite. `heartbeat`, when given, is called while a long Lorenz-Mie
-/// integration runs (mie::EnsembleOptions::progress), from this thread; it must not throw.
-LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wavelength_nm, const MieAccuracy& mie,
+/// thickness_um absent: semi-infinite. `mie`: the Lorenz-Mie integration's accuracy and what of the
+/// phase functions the tables read (its tolerance clamped to [1e-8, 0.1]; its progress unused).
+/// `heartbeat`, when given, is called while a long Lorenz-Mie integration runs
+/// (mie::EnsembleOptions::progress), from this thread; it must not throw.
+LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wavelength_nm,
+                                     const mie::EnsembleOptions& mie,
                                      const std::string& who, const std::function<void()>& heartbeat = {});
 
 /// Every layer of a spec at one wavelength of its spectrum. An analytic medium layer in such a stack
 /// takes its grey albedo (the spec refuses coloured ones there: solve_material); the substrate's
 /// albedo is that of `substrate_channel` (0, 1, 2; all equal for a grey substrate). `heartbeat`:
 /// as particulate_layer_optics'.
-SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, const MieAccuracy& mie,
+SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, const mie::EnsembleOptions& mie,
                                int substrate_channel = 0, const std::function<void()>& heartbeat = {});
 
 /// Every layer of a spec made only of analytic media, for colour channel c (0, 1, 2).
