@@ -209,10 +209,12 @@ TEST_F(ClTableFill, BeckmannStackMatchesReference) {
     compare_tables(model::fill_table_opencl(in), model::fill_table_reference(in, 2));
 }
 
-// The CPU device's fill computes eight cells at once in vector lanes with the reference's formulas,
-// order of summation and library calls: every value is the reference's, bit for bit, for every kind
-// of input (grey and RGB orders, shared and per-sample single scattering, a finite layer's slab
-// factor, GGX in both maskings, Beckmann, nothing but the geometry). Runs without OpenCL.
+// The CPU device's fill computes cells in vector lanes (eight, four or two at once: the
+// instruction set's, and each narrower set's in Pipeline.TableFillLanes.*) with the reference's
+// formulas, order of summation and library calls: every value is the reference's, bit for bit, for
+// every kind of input (grey and RGB orders, shared and per-sample single scattering, a finite
+// layer's slab factor, GGX in both maskings, Beckmann, nothing but the geometry). Runs without
+// OpenCL.
 TEST(TableFillLanes, EqualTheReferenceBitForBit) {
     const auto solved = [](const std::string& text) {
         return model::prepare_fill(model::solve_material(spec_from(text), model::Device::Cpu));

@@ -1,6 +1,7 @@
 #include <brdf/model/table_fill.h>
 
 #include <brdf/core/error.h>
+#include <brdf/core/lane_set.h>
 #include <brdf/core/log.h>
 #include <brdf/core/quadrature.h>
 #include <brdf/core/threads.h>
@@ -764,75 +765,82 @@ namespace {
 
 // ---- The fill in lanes: fill_table_cpu -------------------------------------------------------------
 //
-// cell_value for eight cells at once, one in each lane of GCC's vector types, as the OpenCL kernel
+// cell_value for W cells at once, one in each lane of GCC's vector types, as the OpenCL kernel
 // (kernels/table_fill.cl) computes them: the per-cell loop left the processor a few hundred
 // dependent scalar operations per cell (the Chebyshev recurrence, the single scattering's square
 // roots and divisions). The same formulas in the same order, and the same library calls lane by
 // lane (acos, expm1, exp, erfc), so every value equals cell_value's bit for bit
-// (TableFillLanes.EqualTheReferenceBitForBit). Compiled for AVX-512, AVX2 and the baseline.
+// (TableFillLanes.EqualTheReferenceBitForBit). W is the width of the registers of the instruction
+// set picked at run time (core/lane_set.h: 8, 4, 2 doubles for AVX-512, AVX2, SSE2): a vector
+// wider than the registers GCC lowers through the stack, piece by piece (eight cells under AVX2
+// took three times as long as PoCL's kernel on the same cores).
 
-// Lanes pass between functions that are always inlined into the clones of fill_row_lanes, never
-// across a call: GCC's note that a 64-byte vector argument changes the ABI without AVX-512 does not
-// apply.
+// Lanes pass between functions that are always inlined into each set's fill_row, never across a
+// call: GCC's note that a vector argument's ABI depends on the instruction set does not apply.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
-constexpr int lanes = 8;
-using Lanes = double __attribute__((vector_size(8 * lanes)));
-static_assert(fill_order_block == lanes, "a block of orders of one channel is one vector");
+template <int W> struct CellLanes { // (an alias template would drop the attribute)
+    typedef double vec __attribute__((vector_size(8 * W)));
+};
+template <int W> using Lanes = typename CellLanes<W>::vec;
+static_assert(fill_order_block % 8 == 0, "a block of orders of one channel is whole vectors of every width");
 
-[[gnu::always_inline]] inline Lanes splat(double v) { return Lanes{} + v; }
+template <int W> [[gnu::always_inline]] inline Lanes<W> splat(double v) { return Lanes<W>{} + v; }
 // std::clamp(v, lo, hi) and std::max(0.0, v) per lane (NaN: v, and 0).
-[[gnu::always_inline]] inline Lanes clamp_lanes(Lanes v, double lo, double hi) {
-    return v < lo ? splat(lo) : (hi < v ? splat(hi) : v);
+template <int W> [[gnu::always_inline]] inline Lanes<W> clamp_lanes(Lanes<W> v, double lo, double hi) {
+    return v < lo ? splat<W>(lo) : (hi < v ? splat<W>(hi) : v);
 }
-[[gnu::always_inline]] inline Lanes max0_lanes(Lanes v) { return 0.0 < v ? v : splat(0.0); }
-template <typename F> [[gnu::always_inline]] inline Lanes per_lane(Lanes v, F f) {
-    Lanes out;
-    for (int l = 0; l < lanes; ++l) out[l] = f(v[l]);
+template <int W> [[gnu::always_inline]] inline Lanes<W> max0_lanes(Lanes<W> v) {
+    return 0.0 < v ? v : splat<W>(0.0);
+}
+template <int W, typename F> [[gnu::always_inline]] inline Lanes<W> per_lane(Lanes<W> v, F f) {
+    Lanes<W> out;
+    for (int l = 0; l < W; ++l) out[l] = f(v[l]);
     return out;
 }
-[[gnu::always_inline]] inline Lanes sqrt_lanes(Lanes v) {
-    return per_lane(v, [](double x) { return std::sqrt(x); });
+template <int W> [[gnu::always_inline]] inline Lanes<W> sqrt_lanes(Lanes<W> v) {
+    return per_lane<W>(v, [](double x) { return std::sqrt(x); });
 }
 
 // cubic_table in every lane: each lane's taps read from the table where its x falls.
-[[gnu::always_inline]] inline void cubic_taps_lanes(int points, Lanes x, int k[lanes], Lanes w[4]) {
+template <int W> [[gnu::always_inline]] inline void cubic_taps_lanes(int points, Lanes<W> x, int k[W], Lanes<W> w[4]) {
     const int intervals = points - 3;
-    const Lanes t = clamp_lanes(x, 0.0, 1.0) * intervals;
-    Lanes f;
-    for (int l = 0; l < lanes; ++l) {
+    const Lanes<W> t = clamp_lanes<W>(x, 0.0, 1.0) * intervals;
+    Lanes<W> f;
+    for (int l = 0; l < W; ++l) {
         k[l] = std::min(static_cast<int>(t[l]), intervals - 1);
         f[l] = t[l] - k[l];
     }
     catmull_rom(f, w);
 }
 
-[[gnu::always_inline]] inline Lanes tap_lanes(const double* table, const int k[lanes], int offset, int stride) {
-    Lanes v;
-    for (int l = 0; l < lanes; ++l) v[l] = table[static_cast<std::size_t>(stride) * k[l] + offset];
+template <int W>
+[[gnu::always_inline]] inline Lanes<W> tap_lanes(const double* table, const int k[W], int offset, int stride) {
+    Lanes<W> v;
+    for (int l = 0; l < W; ++l) v[l] = table[static_cast<std::size_t>(stride) * k[l] + offset];
     return v;
 }
 
-[[gnu::always_inline]] inline Lanes cubic_table_lanes(const double* table, int points, Lanes x) {
-    int k[lanes];
-    Lanes w[4];
-    cubic_taps_lanes(points, x, k, w);
-    return w[0] * tap_lanes(table, k, 0, 1) + w[1] * tap_lanes(table, k, 1, 1) + w[2] * tap_lanes(table, k, 2, 1) +
-           w[3] * tap_lanes(table, k, 3, 1);
+template <int W> [[gnu::always_inline]] inline Lanes<W> cubic_table_lanes(const double* table, int points, Lanes<W> x) {
+    int k[W];
+    Lanes<W> w[4];
+    cubic_taps_lanes<W>(points, x, k, w);
+    return w[0] * tap_lanes<W>(table, k, 0, 1) + w[1] * tap_lanes<W>(table, k, 1, 1) +
+           w[2] * tap_lanes<W>(table, k, 2, 1) + w[3] * tap_lanes<W>(table, k, 3, 1);
 }
 
 // The cells of one group: their directions' cosines, and which lanes hold a cell above the horizon.
-struct LaneCells {
-    Lanes mu_i, mu_o, cos_phi;
-    bool live[lanes];
+template <int W> struct LaneCells {
+    Lanes<W> mu_i, mu_o, cos_phi;
+    bool live[W];
 };
 
 // cell_value's multiply scattered part for the live lanes: each lane's taps summed along the orders
-// of its grid nodes (contiguous, as cell_value sums them), then the Fourier sum over a block's
-// orders in all lanes at once.
-template <int C>
-[[gnu::always_inline]] inline void add_orders_lanes(const FillInputs& in, const LaneCells& g, Lanes out[3]) {
-    constexpr int block = C * fill_order_block;
+// of its grid nodes (contiguous, as cell_value sums them; a block's C x 8 values as C x 8 / W
+// vectors), then the Fourier sum over a block's orders in all lanes at once.
+template <int W, int C>
+[[gnu::always_inline]] inline void add_orders_lanes(const FillInputs& in, const LaneCells<W>& g, Lanes<W> out[3]) {
+    constexpr int block = C * fill_order_block, vectors = block / W;
     const int e = in.grid, mp = padded_orders(in.orders);
     struct Taps {
         const double* node[16];
@@ -840,8 +848,8 @@ template <int C>
         bool mirrored[16];
         bool any_mirrored;
         int blocks; // cell_blocks
-    } taps[lanes];
-    for (int l = 0; l < lanes; ++l) {
+    } taps[W];
+    for (int l = 0; l < W; ++l) {
         if (!g.live[l]) continue;
         const Stencil so = stencil(g.mu_o[l], e), si = stencil(g.mu_i[l], e);
         Taps& t = taps[l];
@@ -855,47 +863,47 @@ template <int C>
             }
         t.blocks = cell_blocks(in, so, si);
     }
-    Lanes cm_prev = g.cos_phi, cm = splat(1.0); // cos(-phi) = cos(phi), cos(0)
-    alignas(64) double terms[block][lanes];
+    Lanes<W> cm_prev = g.cos_phi, cm = splat<W>(1.0); // cos(-phi) = cos(phi), cos(0)
+    alignas(64) double terms[block][W];
     for (int m0 = 0; m0 < in.orders; m0 += fill_order_block) {
-        for (int l = 0; l < lanes; ++l) {
+        for (int l = 0; l < W; ++l) {
             if (!g.live[l] || m0 >= taps[l].blocks * fill_order_block) {
                 for (int k = 0; k < block; ++k) terms[k][l] = 0.0;
                 continue;
             }
-            // The block's C x 8 values as C vectors, element k = C j + c (order m0 + j, channel c).
+            // Element k = C j + c of the block: order m0 + j, channel c.
             const Taps& t = taps[l];
-            Lanes acc[C] = {}, mirrored[C] = {};
+            Lanes<W> acc[vectors] = {}, mirrored[vectors] = {};
             for (int tap = 0; tap < 16; ++tap) {
                 const double* f = t.node[tap] + static_cast<std::size_t>(m0) * C;
-                for (int q = 0; q < C; ++q) {
-                    Lanes v;
-                    std::memcpy(&v, f + lanes * q, sizeof v);
+                for (int q = 0; q < vectors; ++q) {
+                    Lanes<W> v;
+                    std::memcpy(&v, f + W * q, sizeof v);
                     acc[q] += t.w[tap] * v;
                 }
             }
             for (int tap = 0; t.any_mirrored && tap < 16; ++tap) {
                 if (!t.mirrored[tap]) continue;
                 const double* f = t.node[tap] + static_cast<std::size_t>(m0) * C;
-                for (int q = 0; q < C; ++q) {
-                    Lanes v;
-                    std::memcpy(&v, f + lanes * q, sizeof v);
+                for (int q = 0; q < vectors; ++q) {
+                    Lanes<W> v;
+                    std::memcpy(&v, f + W * q, sizeof v);
                     mirrored[q] += t.w[tap] * v;
                 }
             }
-            for (int q = 0; q < C; ++q)
-                for (int i = 0; i < lanes; ++i) {
-                    const int k = lanes * q + i;
+            for (int q = 0; q < vectors; ++q)
+                for (int i = 0; i < W; ++i) {
+                    const int k = W * q + i;
                     terms[k][l] = (k / C) % 2 == 1 ? acc[q][i] - 2.0 * mirrored[q][i] : acc[q][i];
                 }
         }
         for (int j = 0; j < fill_order_block; ++j) {
             for (int c = 0; c < C; ++c) {
-                Lanes v;
+                Lanes<W> v;
                 std::memcpy(&v, terms[C * j + c], sizeof v);
                 out[c] += v * cm;
             }
-            const Lanes next = 2.0 * g.cos_phi * cm - cm_prev;
+            const Lanes<W> next = 2.0 * g.cos_phi * cm - cm_prev;
             cm_prev = cm;
             cm = next;
         }
@@ -903,83 +911,90 @@ template <int C>
 }
 
 // add_single_scattering in lanes (term_path and cubic_rgb_table per term).
-[[gnu::always_inline]] inline void add_single_scattering_lanes(const FillInputs& in, const LaneCells& g,
-                                                               Lanes out[3]) {
-    const Lanes sin_i = sqrt_lanes(max0_lanes(1.0 - g.mu_i * g.mu_i));
-    const Lanes sin_o = sqrt_lanes(max0_lanes(1.0 - g.mu_o * g.mu_o));
+template <int W>
+[[gnu::always_inline]] inline void add_single_scattering_lanes(const FillInputs& in, const LaneCells<W>& g,
+                                                               Lanes<W> out[3]) {
+    const Lanes<W> sin_i = sqrt_lanes<W>(max0_lanes<W>(1.0 - g.mu_i * g.mu_i));
+    const Lanes<W> sin_o = sqrt_lanes<W>(max0_lanes<W>(1.0 - g.mu_o * g.mu_o));
     const int kp = in.phase_points, kf = in.fresnel_points, channels = in.channels;
     for (int s = 0; s < in.samples; ++s) {
         const double n = in.refractive_index[s], tau = in.tau[s];
         const double inv_n2 = 1.0 / (n * n);
-        const Lanes ui = sqrt_lanes(1.0 - sin_i * sin_i * inv_n2), uo = sqrt_lanes(1.0 - sin_o * sin_o * inv_n2);
-        const Lanes cos_scatter = clamp_lanes(-uo * ui - sin_o * sin_i * inv_n2 * g.cos_phi, -1.0, 1.0);
+        const Lanes<W> ui = sqrt_lanes<W>(1.0 - sin_i * sin_i * inv_n2);
+        const Lanes<W> uo = sqrt_lanes<W>(1.0 - sin_o * sin_o * inv_n2);
+        const Lanes<W> cos_scatter = clamp_lanes<W>(-uo * ui - sin_o * sin_i * inv_n2 * g.cos_phi, -1.0, 1.0);
         const double* transmission = &in.transmission[static_cast<std::size_t>(s) * kf];
-        const Lanes factor = cubic_table_lanes(transmission, kf, g.mu_o) * cubic_table_lanes(transmission, kf, g.mu_i);
-        const Lanes slab = std::isinf(tau)
-                               ? splat(1.0)
-                               : per_lane(-tau * (1.0 / uo + 1.0 / ui), [](double x) { return -std::expm1(x); });
-        const Lanes u = sqrt_lanes(0.5 * (1.0 - cos_scatter)) - sqrt_lanes(0.5 * (1.0 + cos_scatter));
-        const Lanes value = factor / (uo + ui) * slab;
-        const Lanes x = 0.5 * (u + 1.0);
+        const Lanes<W> factor =
+            cubic_table_lanes<W>(transmission, kf, g.mu_o) * cubic_table_lanes<W>(transmission, kf, g.mu_i);
+        const Lanes<W> slab = std::isinf(tau)
+                                  ? splat<W>(1.0)
+                                  : per_lane<W>(-tau * (1.0 / uo + 1.0 / ui), [](double x) { return -std::expm1(x); });
+        const Lanes<W> u = sqrt_lanes<W>(0.5 * (1.0 - cos_scatter)) - sqrt_lanes<W>(0.5 * (1.0 + cos_scatter));
+        const Lanes<W> value = factor / (uo + ui) * slab;
+        const Lanes<W> x = 0.5 * (u + 1.0);
         const double* table = &in.phase[static_cast<std::size_t>(s) * kp * channels];
-        int k[lanes];
-        Lanes w[4];
-        cubic_taps_lanes(kp, x, k, w);
-        Lanes phase[3];
+        int k[W];
+        Lanes<W> w[4];
+        cubic_taps_lanes<W>(kp, x, k, w);
+        Lanes<W> phase[3];
         for (int c = 0; c < channels; ++c)
-            phase[c] = w[0] * tap_lanes(table, k, c, channels) + w[1] * tap_lanes(table, k, channels + c, channels) +
-                       w[2] * tap_lanes(table, k, 2 * channels + c, channels) +
-                       w[3] * tap_lanes(table, k, 3 * channels + c, channels);
+            phase[c] = w[0] * tap_lanes<W>(table, k, c, channels) +
+                       w[1] * tap_lanes<W>(table, k, channels + c, channels) +
+                       w[2] * tap_lanes<W>(table, k, 2 * channels + c, channels) +
+                       w[3] * tap_lanes<W>(table, k, 3 * channels + c, channels);
         if (channels == 1) phase[1] = phase[2] = phase[0];
         for (int c = 0; c < 3; ++c) out[c] += value * phase[c];
     }
 }
 
 // lobe_geometry in lanes, D G / (4 mu_i mu_o) times each channel's facet Fresnel factor, added.
-[[gnu::always_inline]] inline void add_lobe_lanes(const FillInputs& in, const LaneCells& g, Lanes out[3]) {
-    const Lanes s_i = sqrt_lanes(max0_lanes((1.0 - g.mu_i) * (1.0 + g.mu_i)));
-    const Lanes s_o = sqrt_lanes(max0_lanes((1.0 - g.mu_o) * (1.0 + g.mu_o)));
-    const Lanes omc = 1.0 + g.cos_phi;
-    const Lanes sum = g.mu_i + g.mu_o;
-    const Lanes t2 = ((s_i - s_o) * (s_i - s_o) + 2.0 * s_i * s_o * omc) / (sum * sum);
+template <int W>
+[[gnu::always_inline]] inline void add_lobe_lanes(const FillInputs& in, const LaneCells<W>& g, Lanes<W> out[3]) {
+    const Lanes<W> s_i = sqrt_lanes<W>(max0_lanes<W>((1.0 - g.mu_i) * (1.0 + g.mu_i)));
+    const Lanes<W> s_o = sqrt_lanes<W>(max0_lanes<W>((1.0 - g.mu_o) * (1.0 + g.mu_o)));
+    const Lanes<W> omc = 1.0 + g.cos_phi;
+    const Lanes<W> sum = g.mu_i + g.mu_o;
+    const Lanes<W> t2 = ((s_i - s_o) * (s_i - s_o) + 2.0 * s_i * s_o * omc) / (sum * sum);
     const double a2 = in.lobe_alpha * in.lobe_alpha;
-    const Lanes sec2 = 1.0 + t2;
-    Lanes d;
+    const Lanes<W> sec2 = 1.0 + t2;
+    Lanes<W> d;
     if (in.lobe == FillInputs::Lobe::Ggx) {
-        const Lanes q = a2 + t2;
+        const Lanes<W> q = a2 + t2;
         d = a2 * sec2 * sec2 / (std::numbers::pi * q * q);
     } else {
-        d = per_lane(-t2 / a2, [](double x) { return std::exp(x); }) * sec2 * sec2 / (std::numbers::pi * a2);
+        d = per_lane<W>(-t2 / a2, [](double x) { return std::exp(x); }) * sec2 * sec2 / (std::numbers::pi * a2);
     }
-    Lanes li, lo;
-    for (int l = 0; l < lanes; ++l) {
+    Lanes<W> li{}, lo{};
+    for (int l = 0; l < W; ++l) {
         li[l] = smith_lambda(in.lobe, in.lobe_alpha, g.mu_i[l], s_i[l]);
         lo[l] = smith_lambda(in.lobe, in.lobe_alpha, g.mu_o[l], s_o[l]);
     }
-    const Lanes shadowing = in.lobe_separable ? 1.0 / ((1.0 + li) * (1.0 + lo)) : 1.0 / (1.0 + li + lo);
-    const Lanes cos_d = sqrt_lanes(max0_lanes(0.5 * (1.0 + g.mu_i * g.mu_o - s_i * s_o + s_i * s_o * omc)));
-    const Lanes value = d * shadowing / (4.0 * g.mu_i * g.mu_o);
+    const Lanes<W> shadowing = in.lobe_separable ? 1.0 / ((1.0 + li) * (1.0 + lo)) : 1.0 / (1.0 + li + lo);
+    const Lanes<W> cos_d = sqrt_lanes<W>(max0_lanes<W>(0.5 * (1.0 + g.mu_i * g.mu_o - s_i * s_o + s_i * s_o * omc)));
+    const Lanes<W> value = d * shadowing / (4.0 * g.mu_i * g.mu_o);
     for (int c = 0; c < 3; ++c)
-        out[c] = max0_lanes(out[c] + value * cubic_table_lanes(&in.lobe_fresnel[static_cast<std::size_t>(c) * in.lobe_points],
-                                                               in.lobe_points, cos_d));
+        out[c] = max0_lanes<W>(
+            out[c] + value * cubic_table_lanes<W>(&in.lobe_fresnel[static_cast<std::size_t>(c) * in.lobe_points],
+                                                  in.lobe_points, cos_d));
 }
 
-// One row of the table (theta_h i, theta_d j): its first phi_d half in groups of eight, each cell
-// also written to its mirror (fill_table_reference says why they are equal).
-__attribute__((target_clones("avx512f", "avx2", "default"))) void
-fill_row_lanes(const FillInputs& in, int row, const double* sin_phi, const double* cos_phi, formats::BrdfTable& table) {
+// One row of the table (theta_h i, theta_d j): its first phi_d half in groups of W, each cell also
+// written to its mirror (fill_table_reference says why they are equal).
+template <int W>
+[[gnu::always_inline]] inline void fill_row_lanes(const FillInputs& in, int row, const double* sin_phi,
+                                                  const double* cos_phi, formats::BrdfTable& table) {
     constexpr int bins = formats::phi_d_bins;
     const int i = row / formats::theta_d_bins, j = row % formats::theta_d_bins;
     const double theta_h = formats::theta_h_centre(i), theta_d = formats::theta_d_centre(j);
     const double sh = std::sin(theta_h), ch = std::cos(theta_h), sd = std::sin(theta_d), cd = std::cos(theta_d);
     const std::uint8_t* below = formats::below_horizon_mask().data();
     const std::size_t first = static_cast<std::size_t>(row) * bins;
-    for (int k0 = 0; k0 < bins / 2; k0 += lanes) {
+    for (int k0 = 0; k0 < bins / 2; k0 += W) {
         // formats::to_directions and cell_directions, per lane; lanes past the half repeat its last cell.
-        Lanes sp, cp;
-        LaneCells g;
+        Lanes<W> sp, cp;
+        LaneCells<W> g;
         bool any = false;
-        for (int l = 0; l < lanes; ++l) {
+        for (int l = 0; l < W; ++l) {
             const int k = std::min(k0 + l, bins / 2 - 1);
             sp[l] = sin_phi[k];
             cp[l] = cos_phi[k];
@@ -987,34 +1002,35 @@ fill_row_lanes(const FillInputs& in, int row, const double* sin_phi, const doubl
             any = any || g.live[l];
         }
         if (!any) {
-            for (int l = 0; l < lanes && k0 + l < bins / 2; ++l) {
+            for (int l = 0; l < W && k0 + l < bins / 2; ++l) {
                 table.set_no_data(first + k0 + l);
                 table.set_no_data(first + bins - 1 - (k0 + l));
             }
             continue;
         }
-        const Lanes dx = sd * cp, dy = sd * sp, dz = splat(cd);
-        const Lanes wix = dx * ch + dz * sh, wiy = dy, wiz = -dx * sh + dz * ch;
-        const Lanes mdx = -dx, mdy = -dy;
-        const Lanes wox = mdx * ch + dz * sh, woy = mdy, woz = -mdx * sh + dz * ch;
-        g.mu_i = clamp_lanes(wiz, -1.0, 1.0);
-        g.mu_o = clamp_lanes(woz, -1.0, 1.0);
-        const Lanes horizontal = sqrt_lanes((wix * wix + wiy * wiy) * (wox * wox + woy * woy));
-        g.cos_phi = horizontal > 0.0 ? clamp_lanes((wix * wox + wiy * woy) / horizontal, -1.0, 1.0) : splat(1.0);
+        const Lanes<W> dx = sd * cp, dy = sd * sp, dz = splat<W>(cd);
+        const Lanes<W> wix = dx * ch + dz * sh, wiy = dy, wiz = -dx * sh + dz * ch;
+        const Lanes<W> mdx = -dx, mdy = -dy;
+        const Lanes<W> wox = mdx * ch + dz * sh, woy = mdy, woz = -mdx * sh + dz * ch;
+        g.mu_i = clamp_lanes<W>(wiz, -1.0, 1.0);
+        g.mu_o = clamp_lanes<W>(woz, -1.0, 1.0);
+        const Lanes<W> horizontal = sqrt_lanes<W>((wix * wix + wiy * wiy) * (wox * wox + woy * woy));
+        g.cos_phi =
+            horizontal > 0.0 ? clamp_lanes<W>((wix * wox + wiy * woy) / horizontal, -1.0, 1.0) : splat<W>(1.0);
         // cell_value: every live lane has mu_i, mu_o > 0 (above the horizon).
-        Lanes out[3] = {splat(0.0), splat(0.0), splat(0.0)};
+        Lanes<W> out[3] = {splat<W>(0.0), splat<W>(0.0), splat<W>(0.0)};
         if (in.orders > 0) {
             if (in.channels == 1) {
-                add_orders_lanes<1>(in, g, out);
+                add_orders_lanes<W, 1>(in, g, out);
                 out[1] = out[2] = out[0];
             } else {
-                add_orders_lanes<3>(in, g, out);
+                add_orders_lanes<W, 3>(in, g, out);
             }
         }
-        add_single_scattering_lanes(in, g, out);
-        for (Lanes& v : out) v = max0_lanes(v);
-        if (in.lobe != FillInputs::Lobe::None) add_lobe_lanes(in, g, out);
-        for (int l = 0; l < lanes && k0 + l < bins / 2; ++l) {
+        add_single_scattering_lanes<W>(in, g, out);
+        for (Lanes<W>& v : out) v = max0_lanes<W>(v);
+        if (in.lobe != FillInputs::Lobe::None) add_lobe_lanes<W>(in, g, out);
+        for (int l = 0; l < W && k0 + l < bins / 2; ++l) {
             const std::size_t cell = first + k0 + l, mirror = first + bins - 1 - (k0 + l);
             const Rgb v = g.live[l] ? Rgb{out[0][l], out[1][l], out[2][l]}
                                     : Rgb{formats::BrdfTable::no_data, formats::BrdfTable::no_data,
@@ -1023,6 +1039,32 @@ fill_row_lanes(const FillInputs& in, int row, const double* sin_phi, const doubl
             table.set(mirror, v);
         }
     }
+}
+
+using FillRow = void (*)(const FillInputs&, int, const double*, const double*, formats::BrdfTable&);
+void fill_row_baseline(const FillInputs& in, int row, const double* sin_phi, const double* cos_phi,
+                       formats::BrdfTable& table) {
+    fill_row_lanes<2>(in, row, sin_phi, cos_phi, table);
+}
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2"))) void fill_row_avx2(const FillInputs& in, int row, const double* sin_phi,
+                                                   const double* cos_phi, formats::BrdfTable& table) {
+    fill_row_lanes<4>(in, row, sin_phi, cos_phi, table);
+}
+__attribute__((target("avx512f"))) void fill_row_avx512(const FillInputs& in, int row, const double* sin_phi,
+                                                        const double* cos_phi, formats::BrdfTable& table) {
+    fill_row_lanes<8>(in, row, sin_phi, cos_phi, table);
+}
+#endif
+FillRow fill_row() {
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+    switch (lane_set()) {
+    case LaneSet::avx512: return fill_row_avx512;
+    case LaneSet::avx2: return fill_row_avx2;
+    case LaneSet::baseline: break;
+    }
+#endif
+    return fill_row_baseline;
 }
 
 } // namespace
@@ -1036,7 +1078,8 @@ formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads) {
         cos_phi[k] = std::cos(formats::phi_d_centre(k));
     }
     const int rows = formats::theta_h_bins * formats::theta_d_bins;
-    parallel_for(rows, threads, [&](int row) { fill_row_lanes(in, row, sin_phi.data(), cos_phi.data(), table); });
+    const FillRow fill = fill_row();
+    parallel_for(rows, threads, [&](int row) { fill(in, row, sin_phi.data(), cos_phi.data(), table); });
     return table;
 }
 

@@ -127,9 +127,9 @@ Rgb fill_value_from_cosines(const FillInputs& in, double mu_i, double mu_o, doub
 /// Every cell, on `threads` CPU threads: cell_value cell by cell (fill_value), the C++ reference of
 /// the table-fill kernel.
 formats::BrdfTable fill_table_reference(const FillInputs& in, int threads);
-/// The same table from eight cells at a time in vector lanes (the CPU device's fill): the same
-/// formulas and library calls in the same order, so the same values bit for bit, at a third of the
-/// time.
+/// The same table from cells in vector lanes, as many at a time as the instruction set's registers
+/// hold (the CPU device's fill): the same formulas and library calls in the same order, so the
+/// same values bit for bit, at a third of the time.
 formats::BrdfTable fill_table_cpu(const FillInputs& in, int threads);
 
 } // namespace brdf::model
