@@ -66,7 +66,6 @@ std::string format_index(Complex m) {
 // vector than the registers GCC lowers through the stack, piece by piece, and the pieces' stores
 // cannot be forwarded to the whole's loads: under AVX2 the eight-wide series took 55 % of the seed's
 // Mie (bench_mie, perf).
-#pragma GCC diagnostic ignored "-Wpsabi" // vectors pass only to functions inlined into the kernels
 
 constexpr int mie_lanes = 8; // spheres per batch; the kernels take them W at a time
 template <int W> struct LanesType { // (an alias template would drop the attribute)

@@ -84,8 +84,9 @@ LayerOptics particulate_layer_optics(const material::LayerSpec& layer, double wa
     return out;
 }
 
-SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm, const mie::EnsembleOptions& mie,
-                               int substrate_channel, const std::function<void()>& heartbeat) {
+SpectralOptics spectral_optics(const material::MaterialSpec& spec, double wavelength_nm,
+                               const mie::EnsembleOptions& mie, int substrate_channel,
+                               const std::function<void()>& heartbeat) {
     const std::string who = spec.source.empty() ? spec.name : spec.source;
     SpectralOptics out;
     out.wavelength_nm = wavelength_nm;

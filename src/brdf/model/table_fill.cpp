@@ -775,10 +775,6 @@ namespace {
 // wider than the registers GCC lowers through the stack, piece by piece (eight cells under AVX2
 // took three times as long as PoCL's kernel on the same cores).
 
-// Lanes pass between functions that are always inlined into each set's fill_row, never across a
-// call: GCC's note that a vector argument's ABI depends on the instruction set does not apply.
-#pragma GCC diagnostic ignored "-Wpsabi"
-
 template <int W> struct CellLanes { // (an alias template would drop the attribute)
     typedef double vec __attribute__((vector_size(8 * W)));
 };

@@ -261,7 +261,6 @@ Value evaluate(const Facets& fc, Kind kind, const Pair& p, double omc) {
 // same operations in the same order in each (no contraction, cmake/BrdfWarnings.cmake), so every
 // clone gives the same bits; wider vectors take the integrand's divisions and square roots and the
 // recurrence's lanes at once (docs/physics.md, "Rough interface").
-#pragma GCC diagnostic ignored "-Wpsabi" // its Vec4 lambdas are inlined into the clones: no vector crosses a call
 template <Kind K, Microfacet D>
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
