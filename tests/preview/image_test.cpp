@@ -5,6 +5,11 @@
 #include "preview_test_support.h"
 #include "test_support.h"
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
 namespace brdf::test {
 namespace {
 
@@ -23,6 +28,53 @@ TEST(ToneMap, CurvesAreMonotonicAndBounded) {
     EXPECT_NEAR(preview::srgb_encode(0.0), 0.0, 1e-12);
     EXPECT_NEAR(preview::srgb_encode(1.0), 1.0, 1e-12);
     EXPECT_NEAR(preview::srgb_encode(0.18), 0.4613561, 1e-6); // IEC 61966-2-1
+}
+
+// The PNG writer's codes (thresholds found once per image) are the formula's, value for value: on a
+// fine logarithmic sweep of each curve's working range, at each of the 255 places where the code
+// steps (found between two points of the sweep by bisection over the floats) and the 16 floats on
+// either side, and at the special values.
+TEST(DisplayCodes, EqualTheToneCurveAndSrgbFormula) {
+    const auto formula = [](float x, const preview::ToneOptions& tone) {
+        return static_cast<int>(std::lround(255.0 * preview::srgb_encode(preview::tone_map(x, tone))));
+    };
+    for (auto curve : {preview::ToneCurve::Filmic, preview::ToneCurve::Reinhard, preview::ToneCurve::Clamp})
+        for (double exposure : {-2.0, 0.0, 1.5}) {
+            const preview::ToneOptions tone{exposure, curve};
+            SCOPED_TRACE(testing::Message() << "curve " << static_cast<int>(curve) << ", exposure " << exposure);
+            const preview::DisplayCodes code(tone);
+            int mismatches = 0, steps = 0;
+            const auto check = [&](float x) {
+                if (code(x) != formula(x, tone) && ++mismatches <= 5)
+                    ADD_FAILURE() << "x = " << x << ": " << int{code(x)} << " against " << formula(x, tone);
+            };
+            // 1e-7 to 1e4 (times 2^-exposure): code 1 begins near 1.5e-4, Reinhard's 255 near 200.
+            constexpr int points = 200000;
+            const double scale = std::exp2(-exposure);
+            float before = 0.0f;
+            for (int i = 0; i <= points; ++i) {
+                const float x = static_cast<float>(scale * 1e-7 * std::pow(1e11, static_cast<double>(i) / points));
+                check(x);
+                if (formula(x, tone) != formula(before, tone)) {
+                    ++steps;
+                    // The first float after `before` with x's code; its neighbours either side.
+                    std::uint32_t lo = std::bit_cast<std::uint32_t>(before), hi = std::bit_cast<std::uint32_t>(x);
+                    while (hi - lo > 1) {
+                        const std::uint32_t mid = lo + (hi - lo) / 2;
+                        (formula(std::bit_cast<float>(mid), tone) == formula(x, tone) ? hi : lo) = mid;
+                    }
+                    for (std::uint32_t b = hi - 16; b <= hi + 16; ++b) check(std::bit_cast<float>(b));
+                }
+                before = x;
+            }
+            EXPECT_EQ(steps, 255) << "each code from 1 to 255 begins once";
+            for (float x : {-1.0f, -0.0f, 0.0f, std::numeric_limits<float>::denorm_min(),
+                            std::numeric_limits<float>::min(), 1e-30f, 1e30f, std::numeric_limits<float>::max(),
+                            std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity()})
+                check(x);
+            EXPECT_EQ(code(std::numeric_limits<float>::quiet_NaN()), 0);
+            EXPECT_EQ(mismatches, 0);
+        }
 }
 
 TEST(WriteImage, PngIsEightBitRgbAndExrIsLinearFloat) {

@@ -13,8 +13,10 @@
 #include <png.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 
 namespace brdf::preview {
@@ -52,6 +54,48 @@ double srgb_encode(double v) {
     return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
 }
 
+namespace {
+
+/// The code as written out: what DisplayCodes reproduces.
+int display_code(double linear, const ToneOptions& tone) {
+    return static_cast<int>(std::lround(255.0 * srgb_encode(tone_map(linear, tone))));
+}
+
+} // namespace
+
+DisplayCodes::DisplayCodes(const ToneOptions& tone) {
+    constexpr std::uint32_t infinity_bits = 0x7f800000u;
+    // Non-negative floats are ordered as their bit patterns, 0 .. +inf; code(+inf) = 255.
+    for (int k = 1; k <= 255; ++k) {
+        std::uint32_t lo = 0, hi = infinity_bits; // code(lo) < k <= code(hi), or lo = 0 when code(0) >= k
+        if (display_code(0.0, tone) >= k) hi = 0;
+        while (hi - lo > 1) {
+            const std::uint32_t mid = lo + (hi - lo) / 2;
+            (display_code(std::bit_cast<float>(mid), tone) >= k ? hi : lo) = mid;
+        }
+        m_threshold[static_cast<std::size_t>(k - 1)] = std::bit_cast<float>(hi);
+    }
+    m_threshold[255] = std::numeric_limits<float>::quiet_NaN();
+    // Buckets of the floats by their top bits (sign, exponent, 7 of the mantissa: 1/128 of an
+    // octave wide), each with the count of thresholds at or below its least float; a value then
+    // steps over the few thresholds inside its bucket: ~3.5 ns a value, where a binary search over
+    // all 255 took 6 to 12 ns (10 to 17 ms of an 800 x 600 plot).
+    m_below.resize((infinity_bits >> bucket_shift) + 1);
+    unsigned count = 0;
+    for (std::size_t b = 0; b < m_below.size(); ++b) {
+        const float least = std::bit_cast<float>(static_cast<std::uint32_t>(b << bucket_shift));
+        while (m_threshold[count] <= least) ++count;
+        m_below[b] = static_cast<unsigned char>(count);
+    }
+}
+
+unsigned char DisplayCodes::operator()(float linear) const {
+    if (!(linear > 0.0f)) return 0; // negative, zero or NaN: tone_map's max(0, x)
+    unsigned count = m_below[std::bit_cast<std::uint32_t>(linear) >> bucket_shift];
+    while (m_threshold[count] <= linear) ++count; // the NaN in the last slot stops it
+    return static_cast<unsigned char>(count);
+}
+
 ImageFormat output_format(const std::filesystem::path& path) {
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -65,14 +109,17 @@ namespace {
 
 // 8-bit sRGB through libpng's simplified API (the sRGB chunk comes with it).
 bool write_png(const Image& image, const std::filesystem::path& file, const ToneOptions& tone, std::string& error) {
+    const DisplayCodes code(tone);
     std::vector<std::uint8_t> bytes(image.pixels.size());
-    for (std::size_t k = 0; k < bytes.size(); ++k)
-        bytes[k] = static_cast<std::uint8_t>(std::lround(255.0 * srgb_encode(tone_map(image.pixels[k], tone))));
+    for (std::size_t k = 0; k < bytes.size(); ++k) bytes[k] = code(image.pixels[k]);
     png_image png{};
     png.version = PNG_IMAGE_VERSION;
     png.width = static_cast<png_uint_32>(image.width);
     png.height = static_cast<png_uint_32>(image.height);
     png.format = PNG_FORMAT_RGB;
+    // No row filters and zlib level 3: 800 x 600 lobe plot 28 -> 7 ms (44 -> 42 kB), a 512 x 512
+    // render 31 -> 6 ms (49 -> 77 kB); a preview is looked at, not archived.
+    png.flags = PNG_IMAGE_FLAG_FAST;
     const bool ok = png_image_write_to_file(&png, file.c_str(), 0, bytes.data(), 3 * image.width, nullptr) != 0;
     if (!ok) error = png.message;
     png_image_free(&png);
