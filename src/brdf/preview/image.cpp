@@ -66,9 +66,10 @@ int display_code(double linear, const ToneOptions& tone) {
 DisplayCodes::DisplayCodes(const ToneOptions& tone) {
     constexpr std::uint32_t infinity_bits = 0x7f800000u;
     // Non-negative floats are ordered as their bit patterns, 0 .. +inf; code(+inf) = 255.
+    const int at_zero = display_code(0.0, tone);
     for (int k = 1; k <= 255; ++k) {
-        std::uint32_t lo = 0, hi = infinity_bits; // code(lo) < k <= code(hi), or lo = 0 when code(0) >= k
-        if (display_code(0.0, tone) >= k) hi = 0;
+        // code(lo) < k <= code(hi), unless code(0) >= k already (then x_k = 0)
+        std::uint32_t lo = 0, hi = at_zero >= k ? 0 : infinity_bits;
         while (hi - lo > 1) {
             const std::uint32_t mid = lo + (hi - lo) / 2;
             (display_code(std::bit_cast<float>(mid), tone) >= k ? hi : lo) = mid;
